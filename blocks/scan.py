@@ -1,0 +1,115 @@
+"""Scan strategies: which beams the radar forms, where, and for how long."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+import xradar.model as xm
+
+from pasim_graph import Block, Chunk, Input, Output, Param
+
+from .signals import BEAMS, TRUTH
+
+
+class PPISector(Block):
+    """A PPI sector scan: beams at one elevation across an azimuth sector.
+
+    Beams are spaced ``beam_spacing_deg`` apart from ``azimuth_start_deg`` clockwise to
+    ``azimuth_stop_deg`` (a sector may wrap through north), each dwelling ``pulses`` pulses of
+    ``prt_s``. When the truth is connected and ``align_to_truth`` is set, each beam points at
+    the nearest truth radial, so the scores compare a beam with the radial it is centred on.
+
+    Inputs
+    ------
+    truth : truth_sweep, optional
+        Gives the site, the start time and the radial azimuths to align to.
+
+    Outputs
+    -------
+    beams : beams
+        Azimuth, elevation and time of each beam of the chunk, PRT, pulses, sweep metadata.
+        Written to the output volume as the sweep's coordinates.
+    """
+
+    role = "scan"
+    beam_source = True
+
+    truth = Input(TRUTH, required=False, doc="truth sweep, for site, time and alignment")
+    beams = Output(BEAMS, store="moments", doc="geometry of the beams in the chunk")
+
+    azimuth_start_deg = Param(240.0, units="deg", min=0.0, max=360.0,
+                              doc="first edge of the sector (clockwise from north)")
+    azimuth_stop_deg = Param(330.0, units="deg", min=0.0, max=360.0,
+                             doc="last edge of the sector")
+    beam_spacing_deg = Param(1.0, units="deg", min=0.01, max=30.0,
+                             doc="azimuth step between beams")
+    elevation_deg = Param(0.5, units="deg", min=-2.0, max=90.0, doc="beam elevation")
+    pulses = Param(64, type="int", min=2, max=4096, doc="pulses per dwell (M)")
+    prt_s = Param(1 / 300, units="s", min=1e-5, max=0.1, doc="pulse repetition time")
+    align_to_truth = Param(True, type="bool",
+                           doc="point each beam at the nearest truth radial")
+
+    def setup(self) -> None:
+        span = (self.p["azimuth_stop_deg"] - self.p["azimuth_start_deg"]) % 360.0 or 360.0
+        self.n_beams = max(1, int(round(span / self.p["beam_spacing_deg"])))
+
+    def beam_count(self) -> int:
+        return self.n_beams
+
+    def nominal_azimuths(self) -> np.ndarray:
+        step = self.p["beam_spacing_deg"]
+        return (self.p["azimuth_start_deg"] + step * (np.arange(self.n_beams) + 0.5)) % 360.0
+
+    def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
+        az = self.nominal_azimuths()
+        truth = inputs.get("truth")
+        start = np.datetime64("2000-01-01T00:00:00", "ns")
+        site = {"latitude": 0.0, "longitude": 0.0, "altitude": 0.0}
+        if truth is not None:
+            if self.p["align_to_truth"]:
+                az = _snap(az, truth["azimuth"].values)
+            start = np.datetime64(str(truth.attrs.get("time_coverage_start", start))
+                                  .rstrip("Z"), "ns")
+            site = {k: float(truth.attrs.get(k, 0.0)) for k in site}
+        beams = chunk.beams
+        dwell = self.p["pulses"] * self.p["prt_s"]
+        time = start + (beams * dwell * 1e9).astype("timedelta64[ns]")
+        elevation = np.full(beams.size, self.p["elevation_deg"])
+        ds = xr.Dataset(
+            {
+                "sweep_number": ((), 0),
+                "sweep_mode": ((), "azimuth_surveillance"),
+                "sweep_fixed_angle": ((), float(self.p["elevation_deg"]),
+                                      xm.get_elevation_attrs()),
+                "prt": ("beam", np.full(beams.size, self.p["prt_s"]),
+                        {"units": "seconds", "long_name": "pulse repetition time"}),
+                "pulses": ((), int(self.p["pulses"]), {"long_name": "pulses per dwell"}),
+            },
+            coords={
+                "azimuth": ("beam", az[beams].astype(np.float64), xm.get_azimuth_attrs()),
+                "elevation": ("beam", elevation, xm.get_elevation_attrs()),
+                "time": ("beam", time, {"standard_name": "time"}),
+                **{k: ((), v) for k, v in site.items()},
+            },
+        )
+        ds["latitude"].attrs = xm.get_latitude_attrs()
+        ds["longitude"].attrs = xm.get_longitude_attrs()
+        ds["altitude"].attrs = xm.get_altitude_attrs()
+        return {"beams": ds}
+
+
+def _nearest(az: np.ndarray, radials: np.ndarray) -> np.ndarray:
+    d = (radials[None, :] - az[:, None] + 180.0) % 360.0 - 180.0
+    return radials[np.argmin(np.abs(d), axis=1)]
+
+
+def _snap(az: np.ndarray, radials: np.ndarray) -> np.ndarray:
+    """Point beams at truth radials, shifting the whole scan by one common offset first.
+
+    Snapping each beam on its own would break ties differently from beam to beam (1 deg beams
+    sit midway between 0.5 deg radials) and make the spacing uneven.
+    """
+    shift = (_nearest(az[:1], radials)[0] - az[0] + 180.0) % 360.0 - 180.0
+    return _nearest((az + shift) % 360.0, radials)

@@ -1,0 +1,103 @@
+"""Scoring: estimated moments against the truth, judged by the NEXRAD requirements."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+import xradar.model as xm
+
+from pasim_graph import Block, Chunk, Input, Output, Param
+
+from .signals import BEAMS, MOMENTS, NOISE_POWER, SCORES, SIGNAL_POWER, TRUTH
+
+#: NEXRAD data-quality requirements (paper Table 3): bias, standard deviation, units.
+REQUIREMENTS = {
+    "DBZH": (1.0, 1.0, "dB"),
+    "VRADH": (1.0, 1.0, "m/s"),
+    "WRADH": (1.0, 1.0, "m/s"),
+    "ZDR": (0.1, 0.2, "dB"),
+    "RHOHV": (0.005, 0.01, "1"),
+    "PHIDP": (1.0, 2.0, "deg"),
+}
+
+
+def circular_difference(a: np.ndarray, b: np.ndarray, period: np.ndarray | float) -> np.ndarray:
+    """a - b wrapped into [-period/2, period/2)."""
+    return (a - b + period / 2) % period - period / 2
+
+
+class NexradScorer(Block):
+    """Errors of each moment against the raw truth gate each beam is centred on.
+
+    A gate is scored where the truth reflectivity is at least ``min_reflectivity_dbz`` and the
+    expected SNR at least ``min_snr_db`` (so runs and systems are comparable), and where both
+    the estimate and the truth of that moment exist. Velocity is differenced on the circle of
+    the simulated radar's Nyquist interval, phi_DP on 360 deg. ``pasim score`` reduces the
+    errors to bias and standard deviation and judges them against paper Table 3.
+
+    Inputs
+    ------
+    moments : moments
+    truth : truth_sweep
+    signal_power : signal_power
+    noise_power : noise_power
+    beams : beams
+
+    Outputs
+    -------
+    scores : scores
+        ``truth_<moment>`` on the beam grid, ``SNRH`` (expected, dB) and ``error_<moment>``
+        (NaN where not scored); written to the volume.
+    """
+
+    moments = Input(MOMENTS, doc="estimated moments")
+    truth = Input(TRUTH, doc="truth sweep")
+    signal_power = Input(SIGNAL_POWER, doc="expected echo power")
+    noise_power = Input(NOISE_POWER, doc="noise power per channel")
+    beams = Input(BEAMS, doc="beam geometry")
+    scores = Output(SCORES, store="moments", doc="truth on the grid, SNR and errors")
+
+    min_reflectivity_dbz = Param(10.0, units="dBZ", min=-50.0, max=100.0,
+                                 doc="score gates with truth reflectivity at least this")
+    min_snr_db = Param(10.0, units="dB", min=-50.0, max=100.0,
+                       doc="score gates with expected SNR at least this")
+
+    def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
+        est, truth, beams = inputs["moments"], inputs["truth"], inputs["beams"]
+        radials = truth["azimuth"].values
+        az = beams["azimuth"].values
+        nearest = np.argmin(np.abs((radials[None, :] - az[:, None] + 180) % 360 - 180), axis=1)
+        with np.errstate(divide="ignore"):
+            snr = 10 * np.log10(inputs["signal_power"][..., 0] / inputs["noise_power"][0])
+        ref = truth.isel(radial=nearest)
+        n_est = est.sizes["range"]
+        dbz_t = ref["DBZH"].values[:, :n_est]
+        with np.errstate(invalid="ignore"):
+            scored = (dbz_t >= self.p["min_reflectivity_dbz"]) & (snr >= self.p["min_snr_db"])
+        rule = (f"truth DBZH >= {self.p['min_reflectivity_dbz']:g} dBZ and expected SNRH >= "
+                f"{self.p['min_snr_db']:g} dB; truth = the raw radial nearest each beam")
+        dims = ("beam", "range")
+        out = xr.Dataset({"SNRH": (dims, snr.astype(np.float32),
+                                   dict(xm.sweep_vars_mapping.get("SNRH", {"units": "dB"})))})
+        nyquist = est["nyquist_velocity"].values[:, None]
+        for name, (req_b, req_s, units) in REQUIREMENTS.items():
+            if name not in est or name not in ref:
+                continue
+            t = ref[name].values[:, :n_est].astype(np.float64)
+            e = est[name].values.astype(np.float64)
+            if name == "VRADH":
+                err = circular_difference(e, t, 2 * nyquist)
+            elif name == "PHIDP":
+                err = circular_difference(e, t, 360.0)
+            else:
+                err = e - t
+            err = np.where(scored & np.isfinite(err), err, np.nan)
+            out[f"truth_{name}"] = (dims, t.astype(np.float32),
+                                    {**xm.sweep_vars_mapping[name], "source": "truth"})
+            out[f"error_{name}"] = (dims, err.astype(np.float32), {
+                "pasim_role": "error", "moment": name, "units": units,
+                "requirement_bias": req_b, "requirement_std": req_s, "scored": rule,
+                "long_name": f"{name} estimate minus truth"})
+        return {"scores": out}

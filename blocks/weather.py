@@ -1,0 +1,222 @@
+"""The weather channel: truth cells -> dual-polarisation echo time series at every gate."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from pasim_graph import Block, Chunk, Input, Output, Param
+
+from .signals import (
+    BEAMS,
+    CALIBRATION,
+    IQ,
+    KW2,
+    PATTERN,
+    POLARIZATIONS,
+    RANGE_RESPONSE,
+    SIGNAL_POWER,
+    SPEED_OF_LIGHT,
+    TRUTH,
+)
+
+# Moments used for a cell that has reflectivity but lacks another field (e.g. beyond the
+# Doppler cut's range): a still, narrow-spectrum, well-correlated echo.
+FILL = {"VRADH": 0.0, "WRADH": 1.0, "ZDR": 0.0, "RHOHV": 0.99, "PHIDP": 0.0}
+
+# Added to the diagonal of each normalised covariance so that narrow spectra (width 0 makes it
+# rank one) still factor in float64; it is a white component 60 dB below the signal.
+JITTER = 1e-6
+
+
+def range_weights(response: xr.Dataset, gate_width_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Integrate the range weighting |y|^2 over whole gates at offsets k = -K..K.
+
+    Returns the gate offsets k and the integrals (metres).
+    """
+    x = response["offset_m"].values
+    w = response["power_weight"].values
+    dx = np.diff(x).mean() if x.size > 1 else gate_width_m
+    # Cumulative integral with each sample standing for the interval around it.
+    edges = np.concatenate([x - dx / 2, [x[-1] + dx / 2]])
+    cum = np.concatenate([[0.0], np.cumsum(w * dx)])
+    k_max = int(np.ceil(max(abs(x[0]), abs(x[-1])) / gate_width_m + 0.5))
+    k = np.arange(-k_max, k_max + 1)
+    lo = np.interp((k - 0.5) * gate_width_m, edges, cum)
+    hi = np.interp((k + 0.5) * gate_width_m, edges, cum)
+    r = hi - lo
+    keep = r > r.max() * 1e-12
+    return k[keep], r[keep]
+
+
+def azimuth_profile(power: np.ndarray, d_el_deg: np.ndarray, elevation_deg: float) -> np.ndarray:
+    """Two-way pattern integrated over elevation (rad), per polarisation and azimuth offset."""
+    cos_el = np.cos(np.deg2rad(elevation_deg + d_el_deg))[None, :, None]
+    step = np.deg2rad(d_el_deg[1] - d_el_deg[0])
+    p = power.astype(np.float64)
+    return np.sum(p * p * cos_el, axis=1) * step
+
+
+def cell_solid_angles(profile: np.ndarray, d_az_deg: np.ndarray, centre_deg: np.ndarray,
+                      width_deg: float) -> np.ndarray:
+    """Two-way pattern integral over each truth radial's azimuth extent (sr), per polarisation."""
+    step = np.deg2rad(d_az_deg[1] - d_az_deg[0])
+    edges = np.concatenate([d_az_deg - (d_az_deg[1] - d_az_deg[0]) / 2,
+                            [d_az_deg[-1] + (d_az_deg[1] - d_az_deg[0]) / 2]])
+    out = np.empty((profile.shape[0], centre_deg.size))
+    for i in range(profile.shape[0]):
+        cum = np.concatenate([[0.0], np.cumsum(profile[i] * step)])
+        out[i] = (np.interp(centre_deg + width_deg / 2, edges, cum)
+                  - np.interp(centre_deg - width_deg / 2, edges, cum))
+    return out
+
+
+def gaussian_acf_factors(width_ms: np.ndarray, prt_s: float, wavelength_m: float,
+                         pulses: int) -> np.ndarray:
+    """Cholesky factors of the normalised pulse-to-pulse covariance (paper eq. 13), per cell.
+
+    R[m, n] = exp(-8 (pi w (m - n) T / lambda)^2), real and Toeplitz; the mean velocity enters
+    separately as a diagonal phase, since C = D R D^H with D = diag(exp(-j 4 pi v m T/lambda)).
+    """
+    m = np.arange(pulses)
+    lag = (m[:, None] - m[None, :]).astype(np.float64)
+    a = (np.pi * prt_s / wavelength_m) ** 2
+    cov = np.exp(-8.0 * a * width_ms[:, None, None] ** 2 * lag[None] ** 2)
+    cov += JITTER * np.eye(pulses)
+    return np.linalg.cholesky(cov).astype(np.float32)
+
+
+class WeatherChannel(Block):
+    """Echoes of the truth cells around each beam: paper's covariance method (eq. 13-18).
+
+    Every truth cell with echo inside the pattern grid is an independent Gaussian scatterer
+    ensemble. Its slow-time series is drawn with the covariance of a Gaussian Doppler spectrum
+    (mean velocity, spectrum width; Cholesky colouring of two white sequences V1, V2), and its
+    H and V returns are S_hh = V1 and S_vv = [rho V1 + sqrt(1 - rho^2) V2] exp(j phi_DP) /
+    sqrt(Z_dr). Each cell is weighted by the two-way H or V pattern integrated over its
+    azimuth extent and all elevations (the truth is one sweep, taken as uniform in elevation),
+    and each gate sums the cells around it with the waveform's range weighting. Powers come
+    from the radar equation, so a uniform field of Z dBZ gives back Z through the calibration
+    output. Each beam draws from its own random stream.
+
+    Inputs
+    ------
+    truth : truth_sweep
+    beams : beams
+    pattern : pattern
+    range_response : range_response
+
+    Outputs
+    -------
+    iq : iq
+        Noise-free echo voltages, beam x range x pulse x polarisation, sqrt(W).
+    signal_power : signal_power
+        Expected echo power per gate (W), noise-free.
+    calibration : calibration
+        Radar constant per beam and polarisation (boresight), and the gate ranges.
+    """
+
+    truth = Input(TRUTH, doc="truth sweep")
+    beams = Input(BEAMS, doc="beam geometry")
+    pattern = Input(PATTERN, doc="one-way H and V power patterns")
+    range_response = Input(RANGE_RESPONSE, doc="range weighting after the matched filter")
+
+    iq = Output(IQ, doc="echo voltages at the matched-filter output")
+    signal_power = Output(SIGNAL_POWER, doc="expected echo power per gate")
+    calibration = Output(CALIBRATION, doc="radar constant for power -> dBZ")
+
+    frequency_hz = Param(2.8e9, units="Hz", min=1e8, max=1e11, doc="carrier frequency")
+    peak_power_w = Param(700e3, units="W", min=1e-3, max=1e8, doc="peak transmit power")
+    loss_db = Param(0.0, units="dB", min=0.0, max=30.0, doc="two-way system losses")
+    method = Param("covariance", type="str", choices=("covariance",),
+                   doc="time-series method")
+    support_db = Param(-100.0, units="dB", min=-200.0, max=0.0,
+                       doc="ignore truth radials whose two-way weight is below this level")
+
+    def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
+        truth, beams = inputs["truth"], inputs["beams"]
+        pattern, response = inputs["pattern"], inputs["range_response"]
+        lam = SPEED_OF_LIGHT / self.p["frequency_hz"]
+        prt = float(beams["prt"].values[0])
+        pulses = int(beams["pulses"].values)
+        rng_m = truth["range"].values
+        gate_m = float(truth.attrs["gate_width_m"])
+        width_deg = float(truth.attrs["radial_width_deg"])
+        az_truth = truth["azimuth"].values
+
+        gain = 10 ** (pattern.attrs["gain_db"] / 10)
+        k0 = (self.p["peak_power_w"] * gain**2 * lam**2 * np.pi**5 * KW2 * 1e-18
+              / ((4 * np.pi) ** 3 * lam**4 * 10 ** (self.p["loss_db"] / 10)))
+        k_off, r_k = range_weights(response, gate_m)
+
+        dbz = truth["DBZH"].values
+        echo = np.isfinite(dbz)
+        s_h = np.where(echo, k0 * 10 ** (np.nan_to_num(dbz, nan=-999.0) / 10), 0.0)
+        s_h /= rng_m[None, :] ** 2  # W per (sr m) before pattern and range weighting
+        field = {k: _filled(truth, k, echo) for k in FILL}
+        zdr = 10 ** (np.clip(field["ZDR"], -8, 8) / 10)
+        rho = np.clip(field["RHOHV"], 0.0, 1.0)
+        s_v = s_h / zdr
+
+        d_az = pattern["azimuth_offset_deg"].values
+        d_el = pattern["elevation_offset_deg"].values
+        support = max(abs(d_az[0]), abs(d_az[-1])) + width_deg / 2
+        factors: dict[int, np.ndarray] = {}
+
+        n_b, n_g = beams.sizes["beam"], rng_m.size
+        iq = np.zeros((n_b, n_g, pulses, 2), np.complex64)
+        power = np.zeros((n_b, n_g, 2), np.float64)
+        m = np.arange(pulses)
+        for i, beam in enumerate(chunk.beams):
+            gen = chunk.rng(int(beam))
+            az_b = float(beams["azimuth"].values[i])
+            el_b = float(beams["elevation"].values[i])
+            delta = (az_truth - az_b + 180.0) % 360.0 - 180.0
+            near = np.flatnonzero(np.abs(delta) <= support)
+            profile = azimuth_profile(pattern["power"].values[i], d_el, el_b)
+            omega = cell_solid_angles(profile, d_az, delta[near], width_deg)
+            keep = omega.max(axis=0) >= omega.max() * 10 ** (self.p["support_db"] / 10)
+            near, omega = near[keep], omega[:, keep]
+            volts = np.zeros((2, n_g, pulses), np.complex128)
+            for jj, j in enumerate(near):
+                gates = np.flatnonzero(echo[j])
+                if gates.size == 0:
+                    continue
+                if j not in factors:
+                    factors[j] = gaussian_acf_factors(np.clip(field["WRADH"][j, gates], 0, None),
+                                                      prt, lam, pulses)
+                white = gen.standard_normal((gates.size, pulses, 4), dtype=np.float32)
+                y = np.matmul(factors[j], white) * np.float32(np.sqrt(0.5))
+                doppler = np.exp(-4j * np.pi * field["VRADH"][j, gates, None] * m * prt / lam)
+                x1 = (y[..., 0] + 1j * y[..., 1]) * doppler
+                x2 = (y[..., 2] + 1j * y[..., 3]) * doppler
+                r = rho[j, gates, None]
+                volts[0, gates] += np.sqrt(s_h[j, gates, None] * omega[0, jj]) * x1
+                volts[1, gates] += (np.sqrt(s_v[j, gates, None] * omega[1, jj])
+                                    * (r * x1 + np.sqrt(1 - r**2) * x2)
+                                    * np.exp(1j * np.deg2rad(field["PHIDP"][j, gates, None])))
+            cell_power = np.stack([omega[0] @ s_h[near], omega[1] @ s_v[near]])
+            for k, rk in zip(k_off, r_k, strict=True):
+                lo, hi = max(0, -k), min(n_g, n_g - k)
+                iq[i, lo:hi] += np.moveaxis(np.sqrt(rk) * volts[:, lo + k:hi + k], 0, -1)
+                power[i, lo:hi] += rk * cell_power[:, lo + k:hi + k].T
+
+        omega_bs = np.array([pattern.attrs[f"two_way_solid_angle_sr_{p}"]
+                             for p in POLARIZATIONS])
+        constant_db = 10 * np.log10(k0 * omega_bs * r_k.sum())
+        calibration = xr.Dataset(
+            {"radar_constant_db": (("beam", "polarization"),
+                                   np.broadcast_to(constant_db, (n_b, 2)).copy())},
+            coords={"range": ("range", rng_m), "polarization": list(POLARIZATIONS)},
+            attrs={"wavelength_m": lam, "prt_s": prt},
+        )
+        return {"iq": iq, "signal_power": power.astype(np.float32), "calibration": calibration}
+
+
+def _filled(truth: xr.Dataset, name: str, echo: np.ndarray) -> np.ndarray:
+    if name not in truth:
+        return np.full(echo.shape, FILL[name])
+    values = truth[name].values.astype(np.float64)
+    return np.where(np.isfinite(values), values, FILL[name])

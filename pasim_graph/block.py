@@ -1,0 +1,145 @@
+"""The block base class and the context a block sees while it processes one chunk."""
+
+from __future__ import annotations
+
+import zlib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .ports import Input, Output, Param
+
+
+@dataclass(frozen=True)
+class Chunk:
+    """One chunk of beams as handed to :meth:`Block.process`.
+
+    Attributes
+    ----------
+    beams : numpy.ndarray
+        Indices (into the whole scan) of the beams in this chunk, in scan order.
+    seed : int
+        The run seed.
+    block_name : str
+        Name of the block in the graph; keys its random streams.
+    resource : object
+        What the block's :meth:`Block.load` returned (the executor did the I/O).
+    options : mapping
+        Run options a block may read (``save_iq``).
+    """
+
+    beams: np.ndarray
+    seed: int = 0
+    block_name: str = ""
+    resource: Any = None
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+    def rng(self, beam: int) -> np.random.Generator:
+        """Random generator for one beam, from the run seed, the block name and the beam index.
+
+        Streams are per beam so that the numbers do not depend on how beams are chunked or on
+        which worker runs them.
+        """
+        key = zlib.crc32(self.block_name.encode())
+        return np.random.default_rng(np.random.SeedSequence([self.seed, key, int(beam)]))
+
+
+class Block:
+    """Base class of every block.
+
+    A subclass declares its interface as class attributes: :class:`Input` and :class:`Output`
+    ports and :class:`Param` parameters, each named after its attribute. The interface is
+    readable from the class alone (``Block.interface()``), without building a block.
+
+    ``process(inputs, chunk)`` is pure and works on one chunk: it gets a dict of input values by
+    port name and returns a dict of output values by port name. It does no file I/O and uses no
+    dask; a block that needs a file declares it in :meth:`load`, which the executor calls once.
+    A block whose inputs and outputs carry no ``beam`` dimension runs once per run, and its
+    outputs are shared by every chunk.
+    """
+
+    #: Registered type name, e.g. ``"antenna.pencil"``; set by the registry.
+    type_name: ClassVar[str] = ""
+    #: Set on the block that defines the beams of a scan (exactly one per graph).
+    beam_source: ClassVar[bool] = False
+    #: Roles the command line can address: ``"truth"`` (``--truth``), ``"scan"`` (``--sector``).
+    role: ClassVar[str] = ""
+
+    inputs: ClassVar[dict[str, Input]] = {}
+    outputs: ClassVar[dict[str, Output]] = {}
+    params: ClassVar[dict[str, Param]] = {}
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        inputs: dict[str, Input] = {}
+        outputs: dict[str, Output] = {}
+        params: dict[str, Param] = {}
+        # Walk the MRO so a subclass inherits and may override its parents' declarations.
+        for klass in reversed(cls.__mro__):
+            for attr, value in vars(klass).items():
+                if isinstance(value, Input):
+                    inputs[attr] = _named(value, attr)
+                elif isinstance(value, Output):
+                    outputs[attr] = _named(value, attr)
+                elif isinstance(value, Param):
+                    params[attr] = _named(value, attr)
+        cls.inputs, cls.outputs, cls.params = inputs, outputs, params
+
+    def __init__(self, name: str = "", **params: Any) -> None:
+        self.name = name
+        values = {k: p.default for k, p in self.params.items()}
+        values.update(params)
+        unknown = set(params) - set(self.params)
+        if unknown:
+            raise TypeError(f"{type(self).__name__}: unknown parameters {sorted(unknown)}")
+        self.p: dict[str, Any] = values
+        self.setup()
+
+    def setup(self) -> None:
+        """Derive state from the parameters (no I/O); called once when the block is built."""
+
+    def load(self) -> Any:
+        """Do the block's file I/O, once per run; the result reaches :meth:`process`."""
+        return None
+
+    def beam_count(self) -> int:
+        """Number of beams in the scan (beam sources only)."""
+        raise NotImplementedError
+
+    def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
+        raise NotImplementedError
+
+    @classmethod
+    def runs_per_chunk(cls) -> bool:
+        """True when the block must run for every chunk of beams."""
+        ports = [*cls.inputs.values(), *cls.outputs.values()]
+        return cls.beam_source or any(p.type.per_beam for p in ports)
+
+    @classmethod
+    def doc(cls) -> str:
+        text = (cls.__doc__ or "").strip()
+        return text.splitlines()[0] if text else ""
+
+    @classmethod
+    def interface(cls) -> dict[str, Any]:
+        """The block's interface as JSON-ready data, read from the class alone."""
+        return {
+            "type": cls.type_name,
+            "class": f"{cls.__module__}.{cls.__qualname__}",
+            "doc": cls.doc(),
+            "description": (cls.__doc__ or "").strip(),
+            "role": cls.role,
+            "beam_source": cls.beam_source,
+            "inputs": [p.to_json() for p in cls.inputs.values()],
+            "outputs": [p.to_json() for p in cls.outputs.values()],
+            "params": [p.to_json() for p in cls.params.values()],
+        }
+
+
+def _named(decl: Any, name: str) -> Any:
+    if decl.name == name:
+        return decl
+    # Declarations are frozen dataclasses; a renamed copy keeps the class attribute untouched.
+    return type(decl)(**{**decl.__dict__, "name": name})

@@ -1,0 +1,236 @@
+"""The ``pasim`` command line.
+
+Every user error (a broken graph, a missing file, a bad option) prints a message naming the
+culprit and exits with code 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+from . import __version__, registry
+from .executor import LocalExecutor, RunOptions
+from .graph import Graph, GraphError, parse_overrides, validate
+from .graphfile import Problem, read
+from .store import StoreExistsError, open_volume, summarize, write_volume
+
+EXIT_USAGE = 2
+
+
+class UserError(Exception):
+    """A problem the user can fix; printed without a traceback."""
+
+
+def _graph(args: argparse.Namespace) -> Graph:
+    spec = read(args.graph)
+    overrides, bad = parse_overrides(getattr(args, "set", None) or [])
+    problems = [Problem(spec.file, 0, "", f"--set {b}", "expected BLOCK.PARAM=VALUE")
+                for b in bad]
+    roles: dict[str, list[str]] = {}
+    for name, b in spec.blocks.items():
+        cls = registry.get(b.type)
+        if cls is not None and cls.role:
+            roles.setdefault(cls.role, []).append(name)
+
+    def by_role(role: str, option: str) -> str | None:
+        names = roles.get(role, [])
+        if len(names) != 1:
+            problems.append(Problem(spec.file, 0, "", option,
+                                    f"needs exactly one {role} block in the graph, found "
+                                    f"{len(names)}"))
+            return None
+        return names[0]
+
+    if getattr(args, "truth", None):
+        block = by_role("truth", "--truth")
+        if block:
+            overrides.setdefault(f"{block}.path", str(args.truth))
+    if getattr(args, "sector", None):
+        block = by_role("scan", "--sector")
+        try:
+            a0, a1 = (float(x) for x in args.sector.split(":"))
+        except ValueError:
+            problems.append(Problem(spec.file, 0, "", "--sector",
+                                    f"expected AZ0:AZ1 in degrees, found {args.sector!r}"))
+        else:
+            if block:
+                overrides[f"{block}.azimuth_start_deg"] = a0
+                overrides[f"{block}.azimuth_stop_deg"] = a1
+    try:
+        graph = validate(spec, overrides)
+    except GraphError as exc:
+        raise GraphError(exc.problems + problems) from None
+    if problems:
+        raise GraphError(problems)
+    return graph
+
+
+def cmd_validate(args: argparse.Namespace) -> int:
+    try:
+        graph = _graph(args)
+    except GraphError as exc:
+        if args.json:
+            print(json.dumps({"valid": False,
+                              "problems": [p.to_json() for p in exc.problems]}, indent=2))
+            return EXIT_USAGE
+        raise
+    if args.json:
+        print(json.dumps({"valid": True, **graph.to_json()}, indent=2))
+    else:
+        print(f"{args.graph}: valid ({len(graph.classes)} blocks, {len(graph.edges)} "
+              "connections)")
+    return 0
+
+
+def cmd_blocks(args: argparse.Namespace) -> int:
+    blocks = registry.all_blocks()
+    if args.json:
+        print(json.dumps([cls.interface() for cls in blocks.values()], indent=2, default=str))
+        return 0
+    for name, cls in blocks.items():
+        print(f"{name}  ({cls.__name__}) {cls.doc()}")
+        for p in cls.inputs.values():
+            print(f"    in   {p.name}: {p.type.describe()}")
+        for o in cls.outputs.values():
+            print(f"    out  {o.name}: {o.type.describe()}")
+        for q in cls.params.values():
+            default = "required" if q.required else repr(q.default)
+            print(f"    param {q.name} = {default} {q.units}  {q.doc}".rstrip())
+    return 0
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    graph = _graph(args)
+    out = Path(args.out)
+    if out.exists() and not args.overwrite:
+        raise UserError(f"{out} exists; pass --overwrite to replace it")
+    options = RunOptions(seed=args.seed, chunk_beams=args.chunk, save_iq=args.save_iq)
+    t0 = time.perf_counter()
+    executor = LocalExecutor(graph, options)
+    try:
+        executor.load()
+    except (OSError, ValueError) as exc:
+        raise UserError(f"{args.graph}: while reading inputs: {exc}") from None
+    n = executor.plan.beam_count
+    print(f"running {args.graph}: {n} beams, seed {args.seed}", file=sys.stderr)
+    sweep = executor.run()
+    attrs = {
+        "title": "PASIM-graph simulated radar volume",
+        "Conventions": "Cf/Radial",
+        "version": "2.0",
+        "pasim_graph_version": __version__,
+        "graph": graph.text(),
+        "graph_file": str(args.graph),
+        "seed": args.seed,
+        "simulated": "true",
+        "source": "PASIM-graph simulation",
+    }
+    try:
+        write_volume(out, sweep, attrs, overwrite=args.overwrite)
+    except StoreExistsError as exc:
+        raise UserError(str(exc)) from None
+    dt = time.perf_counter() - t0
+    print(f"wrote {out} in {dt:.1f} s", file=sys.stderr)
+    _print_scores(summarize(open_volume(out)["sweep_0"].to_dataset()), sys.stderr)
+    return 0
+
+
+def cmd_score(args: argparse.Namespace) -> int:
+    try:
+        tree = open_volume(args.store)
+    except (FileNotFoundError, OSError, ValueError) as exc:
+        raise UserError(f"{args.store}: cannot open store: {exc}") from None
+    if "sweep_0" not in tree.children:
+        raise UserError(f"{args.store}: no sweep_0 group; is this a PASIM-graph store?")
+    scores = summarize(tree["sweep_0"].to_dataset())
+    if not scores:
+        raise UserError(f"{args.store}: holds no scored fields (the graph had no scorer)")
+    if args.json:
+        print(json.dumps(scores, indent=2, default=_json_float))
+    else:
+        _print_scores(scores, sys.stdout)
+    return 0
+
+
+def _json_float(x: Any) -> Any:
+    return None if isinstance(x, float) and math.isnan(x) else x
+
+
+def _print_scores(scores: dict[str, dict[str, Any]], stream: Any) -> None:
+    if not scores:
+        return
+    print(f"{'moment':8} {'bias':>9} {'std':>9} {'count':>8}  {'req bias/std':>14}  pass",
+          file=stream)
+    for name, s in scores.items():
+        req = f"{s['requirement_bias']:g}/{s['requirement_std']:g}"
+        print(f"{name:8} {s['bias']:9.4f} {s['std']:9.4f} {s['count']:8d}  {req:>14}  "
+              f"{'yes' if s['pass'] else 'no'}", file=stream)
+    first = next(iter(scores.values()))
+    if first.get("scored"):
+        print(f"scored gates: {first['scored']}", file=stream)
+
+
+def parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="pasim", description="Phased-array weather radar "
+                                 "simulator: run block graphs on real radar data.")
+    ap.add_argument("--version", action="version", version=f"pasim-graph {__version__}")
+    sub = ap.add_subparsers(dest="command", required=True)
+
+    run = sub.add_parser("run", help="run a graph and write a Zarr radar volume")
+    run.add_argument("graph")
+    run.add_argument("--truth", help="truth radar file (NEXRAD Level-II)")
+    run.add_argument("--sector", help="azimuth sector AZ0:AZ1 in degrees, clockwise")
+    run.add_argument("--set", action="append", metavar="BLOCK.PARAM=VALUE",
+                     help="override a block parameter (repeatable)")
+    run.add_argument("--seed", type=int, default=0)
+    run.add_argument("--chunk", type=int, default=8, metavar="BEAMS",
+                     help="beams per chunk (does not change the results)")
+    run.add_argument("--save-iq", action="store_true", help="also store the H and V I/Q cubes")
+    run.add_argument("--out", required=True, help="output store (.zarr)")
+    run.add_argument("--overwrite", action="store_true", help="replace an existing store")
+    run.set_defaults(func=cmd_run)
+
+    val = sub.add_parser("validate", help="check a graph without running it")
+    val.add_argument("graph")
+    val.add_argument("--set", action="append", metavar="BLOCK.PARAM=VALUE")
+    val.add_argument("--truth")
+    val.add_argument("--sector")
+    val.add_argument("--json", action="store_true")
+    val.set_defaults(func=cmd_validate)
+
+    blk = sub.add_parser("blocks", help="list the registered block types")
+    blk.add_argument("--json", action="store_true")
+    blk.set_defaults(func=cmd_blocks)
+
+    sc = sub.add_parser("score", help="print the error statistics stored in a run")
+    sc.add_argument("store")
+    sc.add_argument("--json", action="store_true")
+    sc.set_defaults(func=cmd_score)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    with warnings.catch_warnings():
+        warnings.simplefilter("default", registry.PluginWarning)
+        try:
+            return int(args.func(args))
+        except GraphError as exc:
+            print(exc.report(), file=sys.stderr)
+        except UserError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+        except KeyboardInterrupt:
+            print("interrupted", file=sys.stderr)
+            return 130
+    return EXIT_USAGE
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,140 @@
+"""Executors: they own storage and parallelism, blocks only describe the work on one chunk.
+
+:class:`LocalExecutor` runs a graph in process, chunk after chunk (the debugging path).
+A block whose ports carry no ``beam`` dimension runs once and its outputs are shared by every
+chunk; the others run once per chunk of beams. Only the blocks that feed a requested product
+run at all.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import networkx as nx
+import numpy as np
+import xarray as xr
+
+from .block import Block, Chunk
+from .graph import Graph
+from .ports import BEAM_DIM
+
+
+@dataclass
+class RunOptions:
+    """How to run a graph; none of this is part of the graph itself."""
+
+    seed: int = 0
+    chunk_beams: int = 8
+    save_iq: bool = False
+    products: tuple[str, ...] = ("moments",)
+
+    @property
+    def wanted(self) -> set[str]:
+        return set(self.products) | ({"iq"} if self.save_iq else set())
+
+
+@dataclass
+class Plan:
+    """Which blocks run, in which order, once or per chunk."""
+
+    graph: Graph
+    blocks: dict[str, Block]
+    static: list[str]
+    per_chunk: list[str]
+    sinks: dict[str, list[str]]  # block -> its output ports that are written
+    beam_count: int
+    resources: dict[str, Any] = field(default_factory=dict)
+
+
+def plan(graph: Graph, options: RunOptions) -> Plan:
+    """Prune the graph to what the requested products need and build those blocks."""
+    sinks: dict[str, list[str]] = {}
+    for name, cls in graph.classes.items():
+        ports = [p.name for p in cls.outputs.values() if p.store in options.wanted]
+        if ports:
+            sinks[name] = ports
+    needed = set(sinks)
+    for name in sinks:
+        needed |= nx.ancestors(graph.nx, name)
+    order = [n for n in graph.order() if n in needed]
+    source = next(n for n, c in graph.classes.items() if c.beam_source)
+    needed.add(source)
+    if source not in order:
+        order.insert(0, source)
+    blocks = {n: graph.classes[n](name=n, **graph.params[n]) for n in order}
+    static = [n for n in order if not graph.classes[n].runs_per_chunk()]
+    per_chunk = [n for n in order if graph.classes[n].runs_per_chunk()]
+    return Plan(graph, blocks, static, per_chunk, sinks, blocks[source].beam_count())
+
+
+def chunks(n_beams: int, size: int) -> Iterator[np.ndarray]:
+    size = max(1, int(size))
+    for start in range(0, n_beams, size):
+        yield np.arange(start, min(start + size, n_beams))
+
+
+class LocalExecutor:
+    """Run a graph in this process, one chunk of beams after another."""
+
+    def __init__(self, graph: Graph, options: RunOptions | None = None):
+        self.options = options or RunOptions()
+        self.plan = plan(graph, self.options)
+
+    def load(self) -> None:
+        """Do every block's I/O once (reading the truth file, for example)."""
+        for name, block in self.plan.blocks.items():
+            self.plan.resources[name] = block.load()
+
+    def _run_block(self, name: str, values: dict[tuple[str, str], Any],
+                   beams: np.ndarray) -> None:
+        p = self.plan
+        block = p.blocks[name]
+        inputs = {e.dst_port: values[(e.src, e.src_port)] for e in p.graph.inputs_of(name)}
+        chunk = Chunk(beams=beams, seed=self.options.seed, block_name=name,
+                      resource=p.resources.get(name),
+                      options={"save_iq": self.options.save_iq})
+        out = block.process(inputs, chunk)
+        for port in type(block).outputs:
+            if port in out:
+                values[(name, port)] = out[port]
+
+    def run_static(self) -> dict[tuple[str, str], Any]:
+        values: dict[tuple[str, str], Any] = {}
+        for name in self.plan.static:
+            self._run_block(name, values, np.arange(0))
+        return values
+
+    def run_chunk(self, static: dict[tuple[str, str], Any],
+                  beams: np.ndarray) -> list[xr.Dataset]:
+        """Run the per-chunk blocks on ``beams`` and return the datasets to be stored."""
+        values = dict(static)
+        for name in self.plan.per_chunk:
+            self._run_block(name, values, beams)
+        return self._products(values, per_beam=True)
+
+    def _products(self, values: dict[tuple[str, str], Any], per_beam: bool) -> list[xr.Dataset]:
+        out = []
+        for name, ports in self.plan.sinks.items():
+            for port in ports:
+                if (name, port) not in values:
+                    continue
+                ds = values[(name, port)]
+                if (BEAM_DIM in ds.dims) == per_beam:
+                    out.append(ds)
+        return out
+
+    def run(self) -> xr.Dataset:
+        """Run every chunk and return the merged sweep (beams concatenated in scan order)."""
+        if not self.plan.resources:
+            self.load()
+        static = self.run_static()
+        parts: list[list[xr.Dataset]] = []
+        for beams in chunks(self.plan.beam_count, self.options.chunk_beams):
+            parts.append(self.run_chunk(static, beams))
+        merged = [xr.concat(list(group), dim=BEAM_DIM, data_vars="minimal", coords="minimal",
+                            compat="override", join="override")
+                  for group in zip(*parts, strict=True)]
+        merged += self._products(static, per_beam=False)
+        return xr.merge(merged, compat="override", join="override", combine_attrs="override")

@@ -1,0 +1,263 @@
+"""The graph text format (YAML) read with line numbers, and written back in canonical order.
+
+```yaml
+format: pasim-graph/1
+variables: {prt_s: 3.333e-3}
+blocks:
+  tx:  {type: waveform.rectangular, params: {width_s: 1.6e-6}}
+  hpa: {type: amplifier.saleh}
+connections:
+  - tx.pulse -> hpa.pulse
+```
+Blocks and ports are named, never indexed; a port may be left out when the block has only one
+on that side. ``$name`` refers to a variable. Reading never raises on bad content: it records
+:class:`Problem` s, so that validation can report every problem at once.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+FORMAT = "pasim-graph/1"
+
+
+@dataclass(frozen=True, order=True)
+class Problem:
+    """One thing wrong with a graph, located as precisely as possible."""
+
+    file: str
+    line: int
+    block: str = ""
+    item: str = ""  # "port 'x'", "parameter 'y'", "connection '...'"
+    message: str = ""
+
+    def __str__(self) -> str:
+        where = f"{self.file}:{self.line}" if self.line else self.file
+        what = ", ".join(x for x in (f"block '{self.block}'" if self.block else "", self.item) if x)
+        return f"{where}: {what}: {self.message}" if what else f"{where}: {self.message}"
+
+    def to_json(self) -> dict[str, Any]:
+        return {"file": self.file, "line": self.line, "block": self.block, "item": self.item,
+                "message": self.message}
+
+
+@dataclass
+class BlockSpec:
+    type: str
+    params: dict[str, Any] = field(default_factory=dict)
+    line: int = 0
+    param_lines: dict[str, int] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    block: str
+    port: str | None
+
+    def __str__(self) -> str:
+        return f"{self.block}.{self.port}" if self.port else self.block
+
+
+@dataclass
+class ConnectionSpec:
+    src: Endpoint
+    dst: Endpoint
+    line: int = 0
+
+    def __str__(self) -> str:
+        return f"{self.src} -> {self.dst}"
+
+
+@dataclass
+class GraphSpec:
+    """A graph file as written: block types, raw parameter values, connections."""
+
+    file: str = "<graph>"
+    format: str = FORMAT
+    variables: dict[str, Any] = field(default_factory=dict)
+    blocks: dict[str, BlockSpec] = field(default_factory=dict)
+    connections: list[ConnectionSpec] = field(default_factory=list)
+    problems: list[Problem] = field(default_factory=list)
+
+    def problem(self, line: int, message: str, block: str = "", item: str = "") -> None:
+        self.problems.append(Problem(self.file, line, block, item, message))
+
+
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that also reads ``1e-6`` and ``3e3`` as floats (YAML 1.2 style)."""
+
+
+_FLOAT = re.compile(
+    r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+    |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+    |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+    |[-+]?\.(?:inf|Inf|INF)
+    |\.(?:nan|NaN|NAN))$""",
+    re.X,
+)
+_Loader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456789."))
+
+
+class _Dumper(yaml.SafeDumper):
+    """Quotes strings that :class:`_Loader` would read back as floats."""
+
+
+_Dumper.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456789."))
+
+_CONNECTION = re.compile(r"^\s*([A-Za-z_][\w-]*)(?:\.(\w+))?\s*->\s*([A-Za-z_][\w-]*)(?:\.(\w+))?\s*$")
+_NAME = re.compile(r"^[A-Za-z_][\w-]*$")
+
+
+def _line(node: yaml.Node) -> int:
+    return node.start_mark.line + 1
+
+
+def _value(node: yaml.Node) -> Any:
+    return _Loader(yaml.serialize(node)).get_single_data()
+
+
+def parse_value(text: str) -> Any:
+    """Parse a scalar given on the command line the way the graph file would."""
+    return yaml.load(text, Loader=_Loader)
+
+
+def read(path: str | Path) -> GraphSpec:
+    """Read a graph file; problems (unreadable, malformed) are recorded, never raised."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        spec = GraphSpec(file=str(path))
+        spec.problem(0, f"cannot read graph file: {exc.strerror or exc}")
+        return spec
+    return parse(text, str(path))
+
+
+def parse(text: str, file: str = "<graph>") -> GraphSpec:
+    spec = GraphSpec(file=file)
+    try:
+        root = yaml.compose(text, Loader=_Loader)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = mark.line + 1 if mark is not None else 0
+        problem = getattr(exc, "problem", None) or str(exc)
+        spec.problem(line, f"malformed YAML: {problem}")
+        return spec
+    if not isinstance(root, yaml.MappingNode):
+        spec.problem(_line(root) if root else 1,
+                     "expected a mapping with keys 'format', 'blocks' and 'connections'")
+        return spec
+    sections = {k.value: (k, v) for k, v in root.value}
+    for key, (knode, _) in sections.items():
+        if key not in ("format", "variables", "blocks", "connections"):
+            spec.problem(_line(knode), f"unknown top-level key {key!r} "
+                         "(expected format, variables, blocks, connections)")
+    if "format" not in sections:
+        spec.problem(1, f"missing 'format: {FORMAT}'")
+    else:
+        spec.format = str(_value(sections["format"][1]))
+        if spec.format != FORMAT:
+            spec.problem(_line(sections["format"][1]),
+                         f"unknown format version {spec.format!r}, expected {FORMAT!r}")
+    if "variables" in sections:
+        node = sections["variables"][1]
+        if isinstance(node, yaml.MappingNode):
+            spec.variables = {k.value: _value(v) for k, v in node.value}
+        elif not _is_null(node):
+            spec.problem(_line(node), "'variables' must be a mapping of name: value")
+    if "blocks" not in sections:
+        spec.problem(1, "missing 'blocks'")
+    else:
+        _read_blocks(spec, sections["blocks"][1])
+    if "connections" in sections:
+        _read_connections(spec, sections["connections"][1])
+    return spec
+
+
+def _is_null(node: yaml.Node) -> bool:
+    return isinstance(node, yaml.ScalarNode) and node.tag.endswith(":null")
+
+
+def _read_blocks(spec: GraphSpec, node: yaml.Node) -> None:
+    if not isinstance(node, yaml.MappingNode):
+        spec.problem(_line(node), "'blocks' must be a mapping of block name: {type, params}")
+        return
+    for knode, vnode in node.value:
+        name = knode.value
+        line = _line(knode)
+        if not _NAME.match(str(name)):
+            spec.problem(line, f"invalid block name {name!r} (letters, digits, _ and -)")
+            continue
+        if name in spec.blocks:
+            spec.problem(line, "block defined twice", block=name)
+            continue
+        if not isinstance(vnode, yaml.MappingNode):
+            spec.problem(line, "expected {type: ..., params: {...}}", block=name)
+            continue
+        fields = {k.value: (k, v) for k, v in vnode.value}
+        for key, (k, _) in fields.items():
+            if key not in ("type", "params"):
+                spec.problem(_line(k), f"unknown key {key!r} (expected 'type' and 'params')",
+                             block=name)
+        if "type" not in fields:
+            spec.problem(line, "missing 'type'", block=name)
+            continue
+        block = BlockSpec(type=str(_value(fields["type"][1])), line=line)
+        if "params" in fields:
+            pnode = fields["params"][1]
+            if isinstance(pnode, yaml.MappingNode):
+                for pk, pv in pnode.value:
+                    block.params[pk.value] = _value(pv)
+                    block.param_lines[pk.value] = _line(pk)
+            elif not _is_null(pnode):
+                spec.problem(_line(pnode), "'params' must be a mapping", block=name)
+        spec.blocks[name] = block
+
+
+def _read_connections(spec: GraphSpec, node: yaml.Node) -> None:
+    if _is_null(node):
+        return
+    if not isinstance(node, yaml.SequenceNode):
+        spec.problem(_line(node), "'connections' must be a list of 'a.port -> b.port'")
+        return
+    for item in node.value:
+        text = item.value if isinstance(item, yaml.ScalarNode) else None
+        m = _CONNECTION.match(text) if isinstance(text, str) else None
+        if not m:
+            spec.problem(_line(item), f"cannot read connection {text!r}, expected "
+                         "'block.port -> block.port'")
+            continue
+        spec.connections.append(ConnectionSpec(Endpoint(m[1], m[2]), Endpoint(m[3], m[4]),
+                                               _line(item)))
+
+
+def dumps(spec: GraphSpec) -> str:
+    """Write a graph in canonical form: blocks by name, parameters by name, edges sorted."""
+    out = [f"format: {FORMAT}"]
+    if spec.variables:
+        out.append("variables:")
+        for name in sorted(spec.variables):
+            out.append(f"  {name}: {_flow(spec.variables[name])}")
+    out.append("blocks:")
+    width = max((len(n) for n in spec.blocks), default=0) + 1
+    for name in sorted(spec.blocks):
+        block = spec.blocks[name]
+        body: dict[str, Any] = {"type": block.type}
+        if block.params:
+            body["params"] = {k: block.params[k] for k in sorted(block.params)}
+        out.append(f"  {(name + ':').ljust(width)} {_flow(body)}")
+    out.append("connections:")
+    for text in sorted(str(c) for c in spec.connections):
+        out.append(f"  - {text}")
+    return "\n".join(out) + "\n"
+
+
+def _flow(value: Any) -> str:
+    text = yaml.dump(value, Dumper=_Dumper, default_flow_style=True, sort_keys=False,
+                     width=10**9)
+    return text.strip().removesuffix("...").strip()

@@ -1,0 +1,99 @@
+"""Registry of block types, discovered through the ``pasim_graph.blocks`` entry-point group.
+
+Built-in blocks register through the same group as third-party plugins. The group is read
+once and cached (:func:`refresh` clears the cache after installing a package mid-process).
+Each block class is imported on first use; one that fails to import warns with its name and
+error and does not take the others down.
+"""
+
+from __future__ import annotations
+
+import difflib
+import warnings
+from functools import lru_cache
+from importlib.metadata import EntryPoint, entry_points
+
+from .block import Block
+
+GROUP = "pasim_graph.blocks"
+
+
+class PluginWarning(RuntimeWarning):
+    """A block plugin could not be loaded."""
+
+
+@lru_cache(maxsize=1)
+def _entry_points() -> dict[str, EntryPoint]:
+    found: dict[str, EntryPoint] = {}
+    # Sorted so that, when two packages claim one name, the same one wins every time.
+    for ep in sorted(entry_points(group=GROUP), key=lambda e: (e.name, e.value)):
+        if ep.name in found and found[ep.name].value != ep.value:
+            warnings.warn(
+                f"block type {ep.name!r} is registered twice ({found[ep.name].value} and "
+                f"{ep.value}); using {found[ep.name].value}",
+                PluginWarning,
+                stacklevel=2,
+            )
+            continue
+        found[ep.name] = ep
+    return found
+
+
+_loaded: dict[str, type[Block] | None] = {}
+_errors: dict[str, str] = {}
+
+
+def refresh() -> None:
+    """Forget what was discovered, e.g. after installing a plugin package."""
+    _entry_points.cache_clear()
+    _loaded.clear()
+    _errors.clear()
+
+
+def names() -> list[str]:
+    """Every registered block type name, loadable or not, sorted."""
+    return sorted(_entry_points())
+
+
+def load_error(name: str) -> str | None:
+    """Why a registered block type failed to load, if it did."""
+    get(name)
+    return _errors.get(name)
+
+
+def get(name: str) -> type[Block] | None:
+    """The block class registered as ``name``, or ``None`` if unknown or broken."""
+    if name in _loaded:
+        return _loaded[name]
+    ep = _entry_points().get(name)
+    cls: type[Block] | None = None
+    if ep is not None:
+        try:
+            obj = ep.load()
+            if not (isinstance(obj, type) and issubclass(obj, Block)):
+                raise TypeError(f"{ep.value} is not a pasim_graph.Block subclass")
+            cls = obj
+            cls.type_name = name
+        except Exception as exc:  # a broken plugin must not break everyone else
+            _errors[name] = f"{type(exc).__name__}: {exc}"
+            warnings.warn(
+                f"block plugin {name!r} ({ep.value}) failed to load: {_errors[name]}",
+                PluginWarning,
+                stacklevel=2,
+            )
+    _loaded[name] = cls
+    return cls
+
+
+def all_blocks() -> dict[str, type[Block]]:
+    """Every block type that loads, by name (broken plugins warn and are left out)."""
+    out = {}
+    for name in names():
+        cls = get(name)
+        if cls is not None:
+            out[name] = cls
+    return out
+
+
+def closest(name: str, n: int = 3) -> list[str]:
+    return difflib.get_close_matches(name, names(), n=n, cutoff=0.5)

@@ -1,0 +1,125 @@
+"""Validation reports every problem at once, naming file, block, port or parameter."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from pasim_graph import GraphError, load
+from pasim_graph.graphfile import parse
+from pasim_graph.graph import validate
+
+from .conftest import FIXTURES, GRAPHS, run_cli
+
+BROKEN = FIXTURES / "broken"
+
+# fixture -> words the message must contain (the culprit and what was expected)
+CASES = {
+    "garbage.yaml": ["garbage.yaml:", "malformed YAML"],
+    "unknown_type.yaml": ["block 'tx'", "unknown block type 'waveform.rectangulr'",
+                          "waveform.rectangular"],
+    "unknown_param.yaml": ["block 'tx'", "parameter 'pulse_width'", "unknown parameter",
+                           "width_s"],
+    "unknown_port.yaml": ["block 'tx'", "port 'waveform'", "pulse"],
+    "incompatible.yaml": ["block 'antenna'", "port 'beams'", "incompatible types",
+                          "kind 'pulse' vs 'beams'"],
+    "cycle.yaml": ["cycle"],
+    "bad_version.yaml": ["unknown format version 'pasim-graph/9'"],
+}
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_broken_graph_exit_2_names_culprit(name):
+    res = run_cli("validate", str(BROKEN / name))
+    assert res.returncode == 2, res.stderr
+    assert "Traceback" not in res.stderr
+    for word in CASES[name]:
+        assert word in res.stderr, (word, res.stderr)
+
+
+def test_every_fixture_is_covered():
+    assert {p.name for p in BROKEN.glob("*.yaml")} == set(CASES) | {"many_problems.yaml"}
+
+
+def test_all_problems_reported_at_once():
+    with pytest.raises(GraphError) as info:
+        load(BROKEN / "many_problems.yaml")
+    text = str(info.value)
+    problems = info.value.problems
+    assert "width_s" in text and "expected >= 1e-08" in text
+    assert "unknown parameter" in text and "colour" in text
+    assert "input_backoff_db" in text and "expected float, found str" in text
+    assert "pulses" in text and "expected int, found float" in text
+    assert "required input is not connected" in text  # mf.reference
+    assert len(problems) >= 5
+    # Each names the file and a line.
+    assert all(p.file.endswith("many_problems.yaml") and p.line > 0 for p in problems)
+
+
+def test_validate_json_lists_problems():
+    res = run_cli("validate", str(BROKEN / "unknown_param.yaml"), "--json")
+    assert res.returncode == 2
+    out = json.loads(res.stdout)
+    assert out["valid"] is False
+    assert out["problems"][0]["block"] == "tx"
+
+
+def test_validate_json_lists_blocks_and_connections():
+    res = run_cli("validate", str(GRAPHS / "generic_radar.yaml"), "--json")
+    assert res.returncode == 0, res.stderr
+    out = json.loads(res.stdout)
+    assert out["blocks"]["weather"]["type"] == "channel.weather"
+    assert out["blocks"]["weather"]["params"]["frequency_hz"] == 2.8e9  # $variable resolved
+    assert "weather.iq -> receiver.iq_in" in out["connections"]
+
+
+def test_set_on_missing_block_is_an_error():
+    res = run_cli("validate", str(GRAPHS / "generic_radar.yaml"), "--set", "nosuch.gain_db=3")
+    assert res.returncode == 2
+    assert "nosuch" in res.stderr and "no block named" in res.stderr
+    assert "Traceback" not in res.stderr
+
+
+def test_set_out_of_bounds_value_is_an_error():
+    res = run_cli("validate", str(GRAPHS / "generic_radar.yaml"), "--set", "scan.pulses=1")
+    assert res.returncode == 2
+    assert "block 'scan'" in res.stderr and "parameter 'pulses'" in res.stderr
+
+
+def test_run_with_broken_graph_exits_2_before_computing(tmp_path):
+    out = tmp_path / "x.zarr"
+    res = run_cli("run", str(BROKEN / "unknown_type.yaml"), "--out", str(out))
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert not out.exists()
+
+
+def test_missing_truth_file_is_named(tmp_path):
+    res = run_cli("run", str(GRAPHS / "generic_radar.yaml"), "--truth", "/no/such/file",
+                  "--out", str(tmp_path / "x.zarr"))
+    assert res.returncode == 2
+    assert "/no/such/file" in res.stderr and "no such file" in res.stderr
+
+
+def test_missing_graph_file():
+    res = run_cli("validate", "nope.yaml")
+    assert res.returncode == 2 and "nope.yaml" in res.stderr and "cannot read" in res.stderr
+
+
+def test_port_may_be_omitted_only_when_unique():
+    text = """format: pasim-graph/1
+blocks:
+  tx: {type: waveform.rectangular}
+  hpa: {type: amplifier.ideal}
+  mf: {type: filter.matched}
+  scan: {type: scan.ppi}
+connections:
+  - tx -> hpa
+  - hpa -> mf.pulse
+  - tx -> mf
+"""
+    with pytest.raises(GraphError) as info:
+        validate(parse(text, "g.yaml"))
+    msgs = [str(p) for p in info.value.problems]
+    assert any("name the port" in m and "mf" in m for m in msgs)
+    assert not any("hpa" in m and "name the port" in m for m in msgs)
