@@ -29,8 +29,9 @@ class IdealAmplifier(Block):
         return {"pulse": inputs["pulse_in"]}
 
 
-def saleh(r: np.ndarray, alpha_a: float, beta_a: float, alpha_phi: float,
-          beta_phi: float) -> tuple[np.ndarray, np.ndarray]:
+def saleh(
+    r: np.ndarray, alpha_a: float, beta_a: float, alpha_phi: float, beta_phi: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Saleh AM/AM and AM/PM conversions (the paper's equations 3 and 4)."""
     r2 = r * r
     return alpha_a * r / (1.0 + beta_a * r2), alpha_phi * r2 / (1.0 + beta_phi * r2)
@@ -59,16 +60,22 @@ class SalehAmplifier(Block):
     beta_a = Param(1.1517, min=1e-9, doc="AM/AM compression coefficient")
     alpha_phi = Param(4.0033, units="rad", doc="AM/PM coefficient")
     beta_phi = Param(9.1040, min=0.0, doc="AM/PM saturation coefficient")
-    input_backoff_db = Param(0.0, units="dB", min=0.0, max=60.0,
-                             doc="drive peak below the saturating input")
+    input_backoff_db = Param(
+        0.0, units="dB", min=0.0, max=60.0, doc="drive peak below the saturating input"
+    )
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         ds = inputs["pulse_in"]
         env = ds["envelope"].values
         r_sat = 1.0 / np.sqrt(self.p["beta_a"])
         drive = env * r_sat * 10 ** (-self.p["input_backoff_db"] / 20)
-        amp, phase = saleh(np.abs(drive), self.p["alpha_a"], self.p["beta_a"],
-                           self.p["alpha_phi"], self.p["beta_phi"])
+        amp, phase = saleh(
+            np.abs(drive),
+            self.p["alpha_a"],
+            self.p["beta_a"],
+            self.p["alpha_phi"],
+            self.p["beta_phi"],
+        )
         a_max = self.p["alpha_a"] * r_sat / 2.0  # A(r_sat)
         out = amp / a_max * np.exp(1j * (np.angle(drive) + phase))
         return {"pulse": ds.copy(data={"envelope": out})}

@@ -23,24 +23,35 @@ def offsets(support_deg: float, step_deg: float) -> np.ndarray:
     return np.arange(-n, n + 1) * step_deg
 
 
-def two_way_solid_angle(power: np.ndarray, d_az: np.ndarray, d_el: np.ndarray,
-                        elevation_deg: float) -> float:
+def two_way_solid_angle(
+    power: np.ndarray, d_az: np.ndarray, d_el: np.ndarray, elevation_deg: float
+) -> float:
     """Integral of the two-way power pattern over the grid, in steradians."""
     step = np.deg2rad(d_az[1] - d_az[0]) * np.deg2rad(d_el[1] - d_el[0])
     cos_el = np.cos(np.deg2rad(elevation_deg + d_el))[:, None]
     return float(np.sum(power.astype(np.float64) ** 2 * cos_el) * step)
 
 
-def pattern_dataset(power: np.ndarray, d_az: np.ndarray, d_el: np.ndarray, gain_db: float,
-                    solid_angle_sr: dict[str, float], **attrs: Any) -> xr.Dataset:
+def pattern_dataset(
+    power: np.ndarray,
+    d_az: np.ndarray,
+    d_el: np.ndarray,
+    gain_db: float,
+    solid_angle_sr: dict[str, float],
+    **attrs: Any,
+) -> xr.Dataset:
     return xr.Dataset(
         {"power": (("beam", "polarization", "elevation_offset", "azimuth_offset"), power)},
-        coords={"polarization": list(POLARIZATIONS),
-                "azimuth_offset_deg": ("azimuth_offset", d_az),
-                "elevation_offset_deg": ("elevation_offset", d_el)},
-        attrs={"gain_db": gain_db,
-               **{f"two_way_solid_angle_sr_{p}": v for p, v in solid_angle_sr.items()},
-               **attrs},
+        coords={
+            "polarization": list(POLARIZATIONS),
+            "azimuth_offset_deg": ("azimuth_offset", d_az),
+            "elevation_offset_deg": ("elevation_offset", d_el),
+        },
+        attrs={
+            "gain_db": gain_db,
+            **{f"two_way_solid_angle_sr_{p}": v for p, v in solid_angle_sr.items()},
+            **attrs,
+        },
     )
 
 
@@ -64,10 +75,16 @@ class PencilBeamAntenna(Block):
 
     beamwidth_deg = Param(1.0, units="deg", min=0.1, max=30.0, doc="one-way 3-dB beamwidth")
     gain_db = Param(45.5, units="dB", min=0.0, max=70.0, doc="peak gain")
-    first_sidelobe_db = Param(-32.0, units="dB", min=-60.0, max=-17.6,
-                              doc="first sidelobe level, one-way")
-    support_deg = Param(10.0, units="deg", min=0.5, max=45.0,
-                        doc="half-width of the pattern grid around the beam axis")
+    first_sidelobe_db = Param(
+        -32.0, units="dB", min=-60.0, max=-17.6, doc="first sidelobe level, one-way"
+    )
+    support_deg = Param(
+        10.0,
+        units="deg",
+        min=0.5,
+        max=45.0,
+        doc="half-width of the pattern grid around the beam axis",
+    )
     grid_step_deg = Param(0.05, units="deg", min=0.001, max=1.0, doc="pattern grid step")
 
     def setup(self) -> None:
@@ -76,15 +93,22 @@ class PencilBeamAntenna(Block):
         beam = PencilBeam.design(self.p["beamwidth_deg"], self.p["first_sidelobe_db"])
         self.d_az = offsets(self.p["support_deg"], self.p["grid_step_deg"])
         self.d_el = self.d_az.copy()
-        self.power = pencil_beam_power(self.d_az[None, :], self.d_el[:, None], beam,
-                                       el0_deg=0.0).astype(np.float32)
+        self.power = pencil_beam_power(
+            self.d_az[None, :], self.d_el[:, None], beam, el0_deg=0.0
+        ).astype(np.float32)
         self.omega = two_way_solid_angle(self.power, self.d_az, self.d_el, 0.0)
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         n = inputs["beams"].sizes["beam"]
         power = np.broadcast_to(self.power, (n, 2, *self.power.shape))
-        ds = pattern_dataset(power, self.d_az, self.d_el, self.p["gain_db"],
-                             {p: self.omega for p in POLARIZATIONS}, antenna="pencil")
+        ds = pattern_dataset(
+            power,
+            self.d_az,
+            self.d_el,
+            self.p["gain_db"],
+            {p: self.omega for p in POLARIZATIONS},
+            antenna="pencil",
+        )
         return {"pattern": ds}
 
 
@@ -114,19 +138,34 @@ class PlanarPatchArray(Block):
     spacing_x_m = Param(0.0524, units="m", min=1e-3, max=10.0, doc="element spacing across")
     spacing_y_m = Param(0.0524, units="m", min=1e-3, max=10.0, doc="element spacing up")
     patch_m = Param(0.035, units="m", min=1e-3, max=1.0, doc="side of the square patch")
-    taylor_sll_db = Param(-30.0, units="dB", min=-80.0, max=-13.0,
-                          doc="Taylor taper sidelobe level (both axes)")
+    taylor_sll_db = Param(
+        -30.0, units="dB", min=-80.0, max=-13.0, doc="Taylor taper sidelobe level (both axes)"
+    )
     taylor_nbar = Param(5, type="int", min=1, max=50, doc="Taylor taper nbar")
-    face_azimuth_deg = Param(285.0, units="deg", min=0.0, max=360.0,
-                             doc="azimuth of the array face normal")
+    face_azimuth_deg = Param(
+        285.0, units="deg", min=0.0, max=360.0, doc="azimuth of the array face normal"
+    )
     face_tilt_deg = Param(0.0, units="deg", min=-30.0, max=60.0, doc="upward tilt of the face")
-    support_deg = Param(10.0, units="deg", min=0.5, max=45.0,
-                        doc="half-width of the pattern grid around the beam axis")
+    support_deg = Param(
+        10.0,
+        units="deg",
+        min=0.5,
+        max=45.0,
+        doc="half-width of the pattern grid around the beam axis",
+    )
     grid_step_deg = Param(0.05, units="deg", min=0.001, max=1.0, doc="pattern grid step")
 
     def _array(self) -> dict[str, Any]:
-        keys = ("n_x", "n_y", "frequency_hz", "patch_m", "taylor_sll_db", "taylor_nbar",
-                "face_azimuth_deg", "face_tilt_deg")
+        keys = (
+            "n_x",
+            "n_y",
+            "frequency_hz",
+            "patch_m",
+            "taylor_sll_db",
+            "taylor_nbar",
+            "face_azimuth_deg",
+            "face_tilt_deg",
+        )
         kw = {k: self.p[k] for k in keys}
         kw["dx_m"], kw["dy_m"] = self.p["spacing_x_m"], self.p["spacing_y_m"]
         return kw
@@ -138,28 +177,45 @@ class PlanarPatchArray(Block):
         self.d_el = self.d_az.copy()
         kw = self._array()
         self.gain_db = planar_array_directivity_db(
-            n_x=kw["n_x"], n_y=kw["n_y"], dx_m=kw["dx_m"], dy_m=kw["dy_m"],
-            frequency_hz=kw["frequency_hz"], taylor_sll_db=kw["taylor_sll_db"],
-            taylor_nbar=kw["taylor_nbar"])
+            n_x=kw["n_x"],
+            n_y=kw["n_y"],
+            dx_m=kw["dx_m"],
+            dy_m=kw["dy_m"],
+            frequency_hz=kw["frequency_hz"],
+            taylor_sll_db=kw["taylor_sll_db"],
+            taylor_nbar=kw["taylor_nbar"],
+        )
         broadside = self._power(self.p["face_azimuth_deg"], self.p["face_tilt_deg"])
-        self.omega = {p: two_way_solid_angle(broadside[i], self.d_az, self.d_el,
-                                             self.p["face_tilt_deg"])
-                      for i, p in enumerate(POLARIZATIONS)}
+        self.omega = {
+            p: two_way_solid_angle(broadside[i], self.d_az, self.d_el, self.p["face_tilt_deg"])
+            for i, p in enumerate(POLARIZATIONS)
+        }
 
     def _power(self, az_deg: float, el_deg: float) -> np.ndarray:
         from .patterns import planar_array_power
 
         az = az_deg + self.d_az[None, :]
         el = el_deg + self.d_el[:, None]
-        p_h, p_v = planar_array_power(az, el, steer_az_deg=az_deg, steer_el_deg=el_deg,
-                                      **self._array())
+        p_h, p_v = planar_array_power(
+            az, el, steer_az_deg=az_deg, steer_el_deg=el_deg, **self._array()
+        )
         shape = np.broadcast_shapes(az.shape, el.shape)
         return np.stack([np.broadcast_to(p_h, shape), np.broadcast_to(p_v, shape)])
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         beams = inputs["beams"]
-        power = np.stack([self._power(a, e) for a, e in
-                          zip(beams["azimuth"].values, beams["elevation"].values, strict=True)])
-        ds = pattern_dataset(power.astype(np.float32), self.d_az, self.d_el, self.gain_db,
-                             self.omega, antenna="planar")
+        power = np.stack(
+            [
+                self._power(a, e)
+                for a, e in zip(beams["azimuth"].values, beams["elevation"].values, strict=True)
+            ]
+        )
+        ds = pattern_dataset(
+            power.astype(np.float32),
+            self.d_az,
+            self.d_el,
+            self.gain_db,
+            self.omega,
+            antenna="planar",
+        )
         return {"pattern": ds}

@@ -13,8 +13,14 @@ from pasim_graph import Block, Chunk, Input, Output
 from .signals import BEAMS, CALIBRATION, IQ, MOMENTS, NOISE_POWER
 
 
-def pulse_pair(iq_h: np.ndarray, iq_v: np.ndarray, noise_h: float, noise_v: float,
-               prt_s: float, wavelength_m: float) -> dict[str, np.ndarray]:
+def pulse_pair(
+    iq_h: np.ndarray,
+    iq_v: np.ndarray,
+    noise_h: float,
+    noise_v: float,
+    prt_s: float,
+    wavelength_m: float,
+) -> dict[str, np.ndarray]:
     """Noise-corrected pulse-pair estimates along the last (pulse) axis.
 
     Returns signal powers ``S_H``, ``S_V`` (W; may be negative, meaning noise dominates),
@@ -86,18 +92,32 @@ class PulsePairProcessor(Block):
         rng = cal["range"].values
         const = cal["radar_constant_db"].values  # beam x polarisation
         with np.errstate(divide="ignore", invalid="ignore"):
-            dbz = (10 * np.log10(np.where(est["S_H"] > 0, est["S_H"], np.nan))
-                   + 20 * np.log10(rng)[None, :] - const[:, :1])
+            dbz = (
+                10 * np.log10(np.where(est["S_H"] > 0, est["S_H"], np.nan))
+                + 20 * np.log10(rng)[None, :]
+                - const[:, :1]
+            )
             # The V radar constant may differ from H (patterns); ZDR is corrected for that.
             zdr = est["ZDR"] - (const[:, :1] - const[:, 1:])
-        fields = {"DBZH": dbz, "ZDR": zdr, "RHOHV": est["RHOHV"], "PHIDP": est["PHIDP"],
-                  "VRADH": est["VRADH"], "WRADH": est["WRADH"]}
+        fields = {
+            "DBZH": dbz,
+            "ZDR": zdr,
+            "RHOHV": est["RHOHV"],
+            "PHIDP": est["PHIDP"],
+            "VRADH": est["VRADH"],
+            "WRADH": est["WRADH"],
+        }
         ds = xr.Dataset(
-            {k: (("beam", "range"), v.astype(np.float32), dict(xm.sweep_vars_mapping[k]))
-             for k, v in fields.items()},
+            {
+                k: (("beam", "range"), v.astype(np.float32), dict(xm.sweep_vars_mapping[k]))
+                for k, v in fields.items()
+            },
             coords={"range": ("range", rng, xm.get_range_attrs())},
         )
         nyquist = lam / (4 * prt)
-        ds["nyquist_velocity"] = ("beam", np.full(iq.shape[0], nyquist),
-                                  xm.get_nyquist_velocity_attrs())
+        ds["nyquist_velocity"] = (
+            "beam",
+            np.full(iq.shape[0], nyquist),
+            xm.get_nyquist_velocity_attrs(),
+        )
         return {"moments": ds}

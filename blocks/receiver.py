@@ -55,12 +55,17 @@ class Receiver(Block):
             w = chunk.rng(int(beam)).standard_normal((*echo.shape[1:], 2), dtype=np.float32)
             out[i] = echo[i] + scale * (w[..., 0] + 1j * w[..., 1])
         out *= np.float32(np.sqrt(gain))
-        result: dict[str, Any] = {"iq": out,
-                                  "noise_power": np.full(2, noise * gain)}
+        result: dict[str, Any] = {"iq": out, "noise_power": np.full(2, noise * gain)}
         if chunk.options.get("save_iq"):
             dims = ("beam", "range", "pulse")
             result["iq_store"] = xr.Dataset(
-                {f"IQ_{p}": (dims, out[..., k], {"units": "sqrt(W)",
-                                                 "long_name": f"{p} channel I/Q"})
-                 for k, p in enumerate(POLARIZATIONS)})
+                {
+                    f"IQ_{p}": (
+                        dims,
+                        out[..., k],
+                        {"units": "sqrt(W)", "long_name": f"{p} channel I/Q"},
+                    )
+                    for k, p in enumerate(POLARIZATIONS)
+                }
+            )
         return result

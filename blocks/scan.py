@@ -39,21 +39,23 @@ class PPISector(Block):
     truth = Input(TRUTH, required=False, doc="truth sweep, for site, time and alignment")
     beams = Output(BEAMS, store="moments", doc="geometry of the beams in the chunk")
 
-    azimuth_start_deg = Param(240.0, units="deg", min=0.0, max=360.0,
-                              doc="first edge of the sector (clockwise from north)")
-    azimuth_stop_deg = Param(330.0, units="deg", min=0.0, max=360.0,
-                             doc="last edge of the sector")
-    beam_spacing_deg = Param(1.0, units="deg", min=0.01, max=30.0,
-                             doc="azimuth step between beams")
+    azimuth_start_deg = Param(
+        240.0,
+        units="deg",
+        min=0.0,
+        max=360.0,
+        doc="first edge of the sector (clockwise from north)",
+    )
+    azimuth_stop_deg = Param(330.0, units="deg", min=0.0, max=360.0, doc="last edge of the sector")
+    beam_spacing_deg = Param(1.0, units="deg", min=0.01, max=30.0, doc="azimuth step between beams")
     elevation_deg = Param(0.5, units="deg", min=-2.0, max=90.0, doc="beam elevation")
     pulses = Param(64, type="int", min=2, max=4096, doc="pulses per dwell (M)")
     prt_s = Param(1 / 300, units="s", min=1e-5, max=0.1, doc="pulse repetition time")
-    align_to_truth = Param(True, type="bool",
-                           doc="point each beam at the nearest truth radial")
+    align_to_truth = Param(True, type="bool", doc="point each beam at the nearest truth radial")
 
     def setup(self) -> None:
         span = (self.p["azimuth_stop_deg"] - self.p["azimuth_start_deg"]) % 360.0 or 360.0
-        self.n_beams = max(1, int(round(span / self.p["beam_spacing_deg"])))
+        self.n_beams = max(1, round(span / self.p["beam_spacing_deg"]))
 
     def beam_count(self) -> int:
         return self.n_beams
@@ -70,8 +72,9 @@ class PPISector(Block):
         if truth is not None:
             if self.p["align_to_truth"]:
                 az = _snap(az, truth["azimuth"].values)
-            start = np.datetime64(str(truth.attrs.get("time_coverage_start", start))
-                                  .rstrip("Z"), "ns")
+            start = np.datetime64(
+                str(truth.attrs.get("time_coverage_start", start)).rstrip("Z"), "ns"
+            )
             site = {k: float(truth.attrs.get(k, 0.0)) for k in site}
         beams = chunk.beams
         dwell = self.p["pulses"] * self.p["prt_s"]
@@ -81,10 +84,12 @@ class PPISector(Block):
             {
                 "sweep_number": ((), 0),
                 "sweep_mode": ((), "azimuth_surveillance"),
-                "sweep_fixed_angle": ((), float(self.p["elevation_deg"]),
-                                      xm.get_elevation_attrs()),
-                "prt": ("beam", np.full(beams.size, self.p["prt_s"]),
-                        {"units": "seconds", "long_name": "pulse repetition time"}),
+                "sweep_fixed_angle": ((), float(self.p["elevation_deg"]), xm.get_elevation_attrs()),
+                "prt": (
+                    "beam",
+                    np.full(beams.size, self.p["prt_s"]),
+                    {"units": "seconds", "long_name": "pulse repetition time"},
+                ),
                 "pulses": ((), int(self.p["pulses"]), {"long_name": "pulses per dwell"}),
             },
             coords={

@@ -59,10 +59,16 @@ class NexradScorer(Block):
     beams = Input(BEAMS, doc="beam geometry")
     scores = Output(SCORES, store="moments", doc="truth on the grid, SNR and errors")
 
-    min_reflectivity_dbz = Param(10.0, units="dBZ", min=-50.0, max=100.0,
-                                 doc="score gates with truth reflectivity at least this")
-    min_snr_db = Param(10.0, units="dB", min=-50.0, max=100.0,
-                       doc="score gates with expected SNR at least this")
+    min_reflectivity_dbz = Param(
+        10.0,
+        units="dBZ",
+        min=-50.0,
+        max=100.0,
+        doc="score gates with truth reflectivity at least this",
+    )
+    min_snr_db = Param(
+        10.0, units="dB", min=-50.0, max=100.0, doc="score gates with expected SNR at least this"
+    )
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         est, truth, beams = inputs["moments"], inputs["truth"], inputs["beams"]
@@ -76,11 +82,20 @@ class NexradScorer(Block):
         dbz_t = ref["DBZH"].values[:, :n_est]
         with np.errstate(invalid="ignore"):
             scored = (dbz_t >= self.p["min_reflectivity_dbz"]) & (snr >= self.p["min_snr_db"])
-        rule = (f"truth DBZH >= {self.p['min_reflectivity_dbz']:g} dBZ and expected SNRH >= "
-                f"{self.p['min_snr_db']:g} dB; truth = the raw radial nearest each beam")
+        rule = (
+            f"truth DBZH >= {self.p['min_reflectivity_dbz']:g} dBZ and expected SNRH >= "
+            f"{self.p['min_snr_db']:g} dB; truth = the raw radial nearest each beam"
+        )
         dims = ("beam", "range")
-        out = xr.Dataset({"SNRH": (dims, snr.astype(np.float32),
-                                   dict(xm.sweep_vars_mapping.get("SNRH", {"units": "dB"})))})
+        out = xr.Dataset(
+            {
+                "SNRH": (
+                    dims,
+                    snr.astype(np.float32),
+                    dict(xm.sweep_vars_mapping.get("SNRH", {"units": "dB"})),
+                )
+            }
+        )
         nyquist = est["nyquist_velocity"].values[:, None]
         for name, (req_b, req_s, units) in REQUIREMENTS.items():
             if name not in est or name not in ref:
@@ -94,10 +109,22 @@ class NexradScorer(Block):
             else:
                 err = e - t
             err = np.where(scored & np.isfinite(err), err, np.nan)
-            out[f"truth_{name}"] = (dims, t.astype(np.float32),
-                                    {**xm.sweep_vars_mapping[name], "source": "truth"})
-            out[f"error_{name}"] = (dims, err.astype(np.float32), {
-                "pasim_role": "error", "moment": name, "units": units,
-                "requirement_bias": req_b, "requirement_std": req_s, "scored": rule,
-                "long_name": f"{name} estimate minus truth"})
+            out[f"truth_{name}"] = (
+                dims,
+                t.astype(np.float32),
+                {**xm.sweep_vars_mapping[name], "source": "truth"},
+            )
+            out[f"error_{name}"] = (
+                dims,
+                err.astype(np.float32),
+                {
+                    "pasim_role": "error",
+                    "moment": name,
+                    "units": units,
+                    "requirement_bias": req_b,
+                    "requirement_std": req_s,
+                    "scored": rule,
+                    "long_name": f"{name} estimate minus truth",
+                },
+            )
         return {"scores": out}

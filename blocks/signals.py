@@ -22,8 +22,9 @@ PULSE = PortType("pulse", DATASET, ("sample",), "sqrt(W)")
 #: Range weighting after the matched filter: power weight against range offset.
 RANGE_RESPONSE = PortType("range_response", DATASET, ("offset",), "1")
 #: One-way power patterns per beam and polarisation on an angular grid around the beam axis.
-PATTERN = PortType("pattern", DATASET, ("beam", "polarization", "elevation_offset",
-                                        "azimuth_offset"), "1")
+PATTERN = PortType(
+    "pattern", DATASET, ("beam", "polarization", "elevation_offset", "azimuth_offset"), "1"
+)
 #: The I/Q cube of a chunk of beams.
 IQ = PortType("iq", "complex64", ("beam", "range", "pulse", "polarization"), "sqrt(W)")
 #: The H and V I/Q cubes as stored in the output volume.

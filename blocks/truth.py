@@ -32,8 +32,9 @@ class NexradTruth(Block):
     truth = Output(TRUTH, doc="truth fields on the radar's polar grid")
 
     path = Param("", type="path", doc="NEXRAD Level-II file; empty = the bundled KLBB scene")
-    elevation_deg = Param(0.5, units="deg", min=-2.0, max=90.0,
-                          doc="elevation of the sweep to use (nearest cut)")
+    elevation_deg = Param(
+        0.5, units="deg", min=-2.0, max=90.0, doc="elevation of the sweep to use (nearest cut)"
+    )
 
     def load(self) -> Any:
         from .nexrad_io import read_truth_sweep
@@ -43,10 +44,14 @@ class NexradTruth(Block):
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         sweep = chunk.resource
         ds = xr.Dataset(
-            {name: (("radial", "gate"), np.asarray(values, dtype=np.float32))
-             for name, values in sweep.fields.items()},
-            coords={"azimuth": ("radial", np.asarray(sweep.azimuth_deg, dtype=np.float64)),
-                    "range": ("gate", np.asarray(sweep.range_m, dtype=np.float64))},
+            {
+                name: (("radial", "gate"), np.asarray(values, dtype=np.float32))
+                for name, values in sweep.fields.items()
+            },
+            coords={
+                "azimuth": ("radial", np.asarray(sweep.azimuth_deg, dtype=np.float64)),
+                "range": ("gate", np.asarray(sweep.range_m, dtype=np.float64)),
+            },
             attrs={
                 "elevation_deg": float(sweep.elevation_deg),
                 "radial_width_deg": float(sweep.radial_width_deg),

@@ -34,10 +34,21 @@ class RectangularPulse(Block):
     pulse = Output(PULSE, doc="transmit envelope, peak amplitude 1")
 
     width_s = Param(1.6e-6, units="s", min=1e-8, max=1e-3, doc="pulse width")
-    sample_rate_hz = Param(20e6, units="Hz", min=1e5, max=1e10,
-                           doc="envelope sample rate (sets the range resolution of weighting)")
+    sample_rate_hz = Param(
+        20e6,
+        units="Hz",
+        min=1e5,
+        max=1e10,
+        doc="envelope sample rate (sets the range resolution of weighting)",
+    )
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        n = max(1, int(round(self.p["width_s"] * self.p["sample_rate_hz"])))
-        return {"pulse": pulse_dataset(np.ones(n, complex), self.p["sample_rate_hz"],
-                                       waveform="rectangular", width_s=self.p["width_s"])}
+        n = max(1, round(self.p["width_s"] * self.p["sample_rate_hz"]))
+        return {
+            "pulse": pulse_dataset(
+                np.ones(n, complex),
+                self.p["sample_rate_hz"],
+                waveform="rectangular",
+                width_s=self.p["width_s"],
+            )
+        }

@@ -59,22 +59,29 @@ def azimuth_profile(power: np.ndarray, d_el_deg: np.ndarray, elevation_deg: floa
     return np.sum(p * p * cos_el, axis=1) * step
 
 
-def cell_solid_angles(profile: np.ndarray, d_az_deg: np.ndarray, centre_deg: np.ndarray,
-                      width_deg: float) -> np.ndarray:
+def cell_solid_angles(
+    profile: np.ndarray, d_az_deg: np.ndarray, centre_deg: np.ndarray, width_deg: float
+) -> np.ndarray:
     """Two-way pattern integral over each truth radial's azimuth extent (sr), per polarisation."""
     step = np.deg2rad(d_az_deg[1] - d_az_deg[0])
-    edges = np.concatenate([d_az_deg - (d_az_deg[1] - d_az_deg[0]) / 2,
-                            [d_az_deg[-1] + (d_az_deg[1] - d_az_deg[0]) / 2]])
+    edges = np.concatenate(
+        [
+            d_az_deg - (d_az_deg[1] - d_az_deg[0]) / 2,
+            [d_az_deg[-1] + (d_az_deg[1] - d_az_deg[0]) / 2],
+        ]
+    )
     out = np.empty((profile.shape[0], centre_deg.size))
     for i in range(profile.shape[0]):
         cum = np.concatenate([[0.0], np.cumsum(profile[i] * step)])
-        out[i] = (np.interp(centre_deg + width_deg / 2, edges, cum)
-                  - np.interp(centre_deg - width_deg / 2, edges, cum))
+        out[i] = np.interp(centre_deg + width_deg / 2, edges, cum) - np.interp(
+            centre_deg - width_deg / 2, edges, cum
+        )
     return out
 
 
-def gaussian_acf_factors(width_ms: np.ndarray, prt_s: float, wavelength_m: float,
-                         pulses: int) -> np.ndarray:
+def gaussian_acf_factors(
+    width_ms: np.ndarray, prt_s: float, wavelength_m: float, pulses: int
+) -> np.ndarray:
     """Cholesky factors of the normalised pulse-to-pulse covariance (paper eq. 13), per cell.
 
     R[m, n] = exp(-8 (pi w (m - n) T / lambda)^2), real and Toeplitz; the mean velocity enters
@@ -130,10 +137,14 @@ class WeatherChannel(Block):
     frequency_hz = Param(2.8e9, units="Hz", min=1e8, max=1e11, doc="carrier frequency")
     peak_power_w = Param(700e3, units="W", min=1e-3, max=1e8, doc="peak transmit power")
     loss_db = Param(0.0, units="dB", min=0.0, max=30.0, doc="two-way system losses")
-    method = Param("covariance", type="str", choices=("covariance",),
-                   doc="time-series method")
-    support_db = Param(-100.0, units="dB", min=-200.0, max=0.0,
-                       doc="ignore truth radials whose two-way weight is below this level")
+    method = Param("covariance", type="str", choices=("covariance",), doc="time-series method")
+    support_db = Param(
+        -100.0,
+        units="dB",
+        min=-200.0,
+        max=0.0,
+        doc="ignore truth radials whose two-way weight is below this level",
+    )
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         truth, beams = inputs["truth"], inputs["beams"]
@@ -147,8 +158,15 @@ class WeatherChannel(Block):
         az_truth = truth["azimuth"].values
 
         gain = 10 ** (pattern.attrs["gain_db"] / 10)
-        k0 = (self.p["peak_power_w"] * gain**2 * lam**2 * np.pi**5 * KW2 * 1e-18
-              / ((4 * np.pi) ** 3 * lam**4 * 10 ** (self.p["loss_db"] / 10)))
+        k0 = (
+            self.p["peak_power_w"]
+            * gain**2
+            * lam**2
+            * np.pi**5
+            * KW2
+            * 1e-18
+            / ((4 * np.pi) ** 3 * lam**4 * 10 ** (self.p["loss_db"] / 10))
+        )
         k_off, r_k = range_weights(response, gate_m)
 
         dbz = truth["DBZH"].values
@@ -185,8 +203,9 @@ class WeatherChannel(Block):
                 if gates.size == 0:
                     continue
                 if j not in factors:
-                    factors[j] = gaussian_acf_factors(np.clip(field["WRADH"][j, gates], 0, None),
-                                                      prt, lam, pulses)
+                    factors[j] = gaussian_acf_factors(
+                        np.clip(field["WRADH"][j, gates], 0, None), prt, lam, pulses
+                    )
                 white = gen.standard_normal((gates.size, pulses, 4), dtype=np.float32)
                 y = np.matmul(factors[j], white) * np.float32(np.sqrt(0.5))
                 doppler = np.exp(-4j * np.pi * field["VRADH"][j, gates, None] * m * prt / lam)
@@ -194,21 +213,26 @@ class WeatherChannel(Block):
                 x2 = (y[..., 2] + 1j * y[..., 3]) * doppler
                 r = rho[j, gates, None]
                 volts[0, gates] += np.sqrt(s_h[j, gates, None] * omega[0, jj]) * x1
-                volts[1, gates] += (np.sqrt(s_v[j, gates, None] * omega[1, jj])
-                                    * (r * x1 + np.sqrt(1 - r**2) * x2)
-                                    * np.exp(1j * np.deg2rad(field["PHIDP"][j, gates, None])))
+                volts[1, gates] += (
+                    np.sqrt(s_v[j, gates, None] * omega[1, jj])
+                    * (r * x1 + np.sqrt(1 - r**2) * x2)
+                    * np.exp(1j * np.deg2rad(field["PHIDP"][j, gates, None]))
+                )
             cell_power = np.stack([omega[0] @ s_h[near], omega[1] @ s_v[near]])
             for k, rk in zip(k_off, r_k, strict=True):
                 lo, hi = max(0, -k), min(n_g, n_g - k)
-                iq[i, lo:hi] += np.moveaxis(np.sqrt(rk) * volts[:, lo + k:hi + k], 0, -1)
-                power[i, lo:hi] += rk * cell_power[:, lo + k:hi + k].T
+                iq[i, lo:hi] += np.moveaxis(np.sqrt(rk) * volts[:, lo + k : hi + k], 0, -1)
+                power[i, lo:hi] += rk * cell_power[:, lo + k : hi + k].T
 
-        omega_bs = np.array([pattern.attrs[f"two_way_solid_angle_sr_{p}"]
-                             for p in POLARIZATIONS])
+        omega_bs = np.array([pattern.attrs[f"two_way_solid_angle_sr_{p}"] for p in POLARIZATIONS])
         constant_db = 10 * np.log10(k0 * omega_bs * r_k.sum())
         calibration = xr.Dataset(
-            {"radar_constant_db": (("beam", "polarization"),
-                                   np.broadcast_to(constant_db, (n_b, 2)).copy())},
+            {
+                "radar_constant_db": (
+                    ("beam", "polarization"),
+                    np.broadcast_to(constant_db, (n_b, 2)).copy(),
+                )
+            },
             coords={"range": ("range", rng_m), "polarization": list(POLARIZATIONS)},
             attrs={"wavelength_m": lam, "prt_s": prt},
         )

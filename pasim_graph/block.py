@@ -114,7 +114,7 @@ class Block:
     @classmethod
     def runs_per_chunk(cls) -> bool:
         """True when the block must run for every chunk of beams."""
-        ports = [*cls.inputs.values(), *cls.outputs.values()]
+        ports: list[Input | Output] = [*cls.inputs.values(), *cls.outputs.values()]
         return cls.beam_source or any(p.type.per_beam for p in ports)
 
     @classmethod

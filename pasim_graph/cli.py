@@ -31,8 +31,7 @@ class UserError(Exception):
 def _graph(args: argparse.Namespace) -> Graph:
     spec = read(args.graph)
     overrides, bad = parse_overrides(getattr(args, "set", None) or [])
-    problems = [Problem(spec.file, 0, "", f"--set {b}", "expected BLOCK.PARAM=VALUE")
-                for b in bad]
+    problems = [Problem(spec.file, 0, "", f"--set {b}", "expected BLOCK.PARAM=VALUE") for b in bad]
     roles: dict[str, list[str]] = {}
     for name, b in spec.blocks.items():
         cls = registry.get(b.type)
@@ -42,9 +41,15 @@ def _graph(args: argparse.Namespace) -> Graph:
     def by_role(role: str, option: str) -> str | None:
         names = roles.get(role, [])
         if len(names) != 1:
-            problems.append(Problem(spec.file, 0, "", option,
-                                    f"needs exactly one {role} block in the graph, found "
-                                    f"{len(names)}"))
+            problems.append(
+                Problem(
+                    spec.file,
+                    0,
+                    "",
+                    option,
+                    f"needs exactly one {role} block in the graph, found {len(names)}",
+                )
+            )
             return None
         return names[0]
 
@@ -57,8 +62,15 @@ def _graph(args: argparse.Namespace) -> Graph:
         try:
             a0, a1 = (float(x) for x in args.sector.split(":"))
         except ValueError:
-            problems.append(Problem(spec.file, 0, "", "--sector",
-                                    f"expected AZ0:AZ1 in degrees, found {args.sector!r}"))
+            problems.append(
+                Problem(
+                    spec.file,
+                    0,
+                    "",
+                    "--sector",
+                    f"expected AZ0:AZ1 in degrees, found {args.sector!r}",
+                )
+            )
         else:
             if block:
                 overrides[f"{block}.azimuth_start_deg"] = a0
@@ -77,15 +89,17 @@ def cmd_validate(args: argparse.Namespace) -> int:
         graph = _graph(args)
     except GraphError as exc:
         if args.json:
-            print(json.dumps({"valid": False,
-                              "problems": [p.to_json() for p in exc.problems]}, indent=2))
+            print(
+                json.dumps(
+                    {"valid": False, "problems": [p.to_json() for p in exc.problems]}, indent=2
+                )
+            )
             return EXIT_USAGE
         raise
     if args.json:
         print(json.dumps({"valid": True, **graph.to_json()}, indent=2))
     else:
-        print(f"{args.graph}: valid ({len(graph.classes)} blocks, {len(graph.edges)} "
-              "connections)")
+        print(f"{args.graph}: valid ({len(graph.classes)} blocks, {len(graph.edges)} connections)")
     return 0
 
 
@@ -166,20 +180,26 @@ def _json_float(x: Any) -> Any:
 def _print_scores(scores: dict[str, dict[str, Any]], stream: Any) -> None:
     if not scores:
         return
-    print(f"{'moment':8} {'bias':>9} {'std':>9} {'count':>8}  {'req bias/std':>14}  pass",
-          file=stream)
+    print(
+        f"{'moment':8} {'bias':>9} {'std':>9} {'count':>8}  {'req bias/std':>14}  pass", file=stream
+    )
     for name, s in scores.items():
         req = f"{s['requirement_bias']:g}/{s['requirement_std']:g}"
-        print(f"{name:8} {s['bias']:9.4f} {s['std']:9.4f} {s['count']:8d}  {req:>14}  "
-              f"{'yes' if s['pass'] else 'no'}", file=stream)
+        print(
+            f"{name:8} {s['bias']:9.4f} {s['std']:9.4f} {s['count']:8d}  {req:>14}  "
+            f"{'yes' if s['pass'] else 'no'}",
+            file=stream,
+        )
     first = next(iter(scores.values()))
     if first.get("scored"):
         print(f"scored gates: {first['scored']}", file=stream)
 
 
 def parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="pasim", description="Phased-array weather radar "
-                                 "simulator: run block graphs on real radar data.")
+    ap = argparse.ArgumentParser(
+        prog="pasim",
+        description="Phased-array weather radar simulator: run block graphs on real radar data.",
+    )
     ap.add_argument("--version", action="version", version=f"pasim-graph {__version__}")
     sub = ap.add_subparsers(dest="command", required=True)
 
@@ -187,11 +207,20 @@ def parser() -> argparse.ArgumentParser:
     run.add_argument("graph")
     run.add_argument("--truth", help="truth radar file (NEXRAD Level-II)")
     run.add_argument("--sector", help="azimuth sector AZ0:AZ1 in degrees, clockwise")
-    run.add_argument("--set", action="append", metavar="BLOCK.PARAM=VALUE",
-                     help="override a block parameter (repeatable)")
+    run.add_argument(
+        "--set",
+        action="append",
+        metavar="BLOCK.PARAM=VALUE",
+        help="override a block parameter (repeatable)",
+    )
     run.add_argument("--seed", type=int, default=0)
-    run.add_argument("--chunk", type=int, default=8, metavar="BEAMS",
-                     help="beams per chunk (does not change the results)")
+    run.add_argument(
+        "--chunk",
+        type=int,
+        default=8,
+        metavar="BEAMS",
+        help="beams per chunk (does not change the results)",
+    )
     run.add_argument("--save-iq", action="store_true", help="also store the H and V I/Q cubes")
     run.add_argument("--out", required=True, help="output store (.zarr)")
     run.add_argument("--overwrite", action="store_true", help="replace an existing store")

@@ -87,14 +87,17 @@ class LocalExecutor:
         for name, block in self.plan.blocks.items():
             self.plan.resources[name] = block.load()
 
-    def _run_block(self, name: str, values: dict[tuple[str, str], Any],
-                   beams: np.ndarray) -> None:
+    def _run_block(self, name: str, values: dict[tuple[str, str], Any], beams: np.ndarray) -> None:
         p = self.plan
         block = p.blocks[name]
         inputs = {e.dst_port: values[(e.src, e.src_port)] for e in p.graph.inputs_of(name)}
-        chunk = Chunk(beams=beams, seed=self.options.seed, block_name=name,
-                      resource=p.resources.get(name),
-                      options={"save_iq": self.options.save_iq})
+        chunk = Chunk(
+            beams=beams,
+            seed=self.options.seed,
+            block_name=name,
+            resource=p.resources.get(name),
+            options={"save_iq": self.options.save_iq},
+        )
         out = block.process(inputs, chunk)
         for port in type(block).outputs:
             if port in out:
@@ -106,8 +109,7 @@ class LocalExecutor:
             self._run_block(name, values, np.arange(0))
         return values
 
-    def run_chunk(self, static: dict[tuple[str, str], Any],
-                  beams: np.ndarray) -> list[xr.Dataset]:
+    def run_chunk(self, static: dict[tuple[str, str], Any], beams: np.ndarray) -> list[xr.Dataset]:
         """Run the per-chunk blocks on ``beams`` and return the datasets to be stored."""
         values = dict(static)
         for name in self.plan.per_chunk:
@@ -133,8 +135,16 @@ class LocalExecutor:
         parts: list[list[xr.Dataset]] = []
         for beams in chunks(self.plan.beam_count, self.options.chunk_beams):
             parts.append(self.run_chunk(static, beams))
-        merged = [xr.concat(list(group), dim=BEAM_DIM, data_vars="minimal", coords="minimal",
-                            compat="override", join="override")
-                  for group in zip(*parts, strict=True)]
+        merged = [
+            xr.concat(
+                list(group),
+                dim=BEAM_DIM,
+                data_vars="minimal",
+                coords="minimal",
+                compat="override",
+                join="override",
+            )
+            for group in zip(*parts, strict=True)
+        ]
         merged += self._products(static, per_beam=False)
         return xr.merge(merged, compat="override", join="override", combine_attrs="override")

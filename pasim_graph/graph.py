@@ -54,8 +54,13 @@ class Graph:
     ``networkx.MultiDiGraph`` (nodes are block names, edges carry port names).
     """
 
-    def __init__(self, spec: GraphSpec, classes: dict[str, type[Block]],
-                 params: dict[str, dict[str, Any]], edges: list[Edge]):
+    def __init__(
+        self,
+        spec: GraphSpec,
+        classes: dict[str, type[Block]],
+        params: dict[str, dict[str, Any]],
+        edges: list[Edge],
+    ):
         self.spec = spec
         self.classes = classes
         self.params = params
@@ -86,10 +91,13 @@ class Graph:
     def to_json(self) -> dict[str, Any]:
         return {
             "file": self.spec.file,
-            "blocks": {n: {"type": self.spec.blocks[n].type, "params": self.params[n]}
-                       for n in sorted(self.classes)},
-            "connections": sorted(f"{e.src}.{e.src_port} -> {e.dst}.{e.dst_port}"
-                                  for e in self.edges),
+            "blocks": {
+                n: {"type": self.spec.blocks[n].type, "params": self.params[n]}
+                for n in sorted(self.classes)
+            },
+            "connections": sorted(
+                f"{e.src}.{e.src_port} -> {e.dst}.{e.dst_port}" for e in self.edges
+            ),
         }
 
 
@@ -120,8 +128,15 @@ def validate(spec: GraphSpec, overrides: dict[str, Any] | None = None) -> Graph:
         block, _, param = key.partition(".")
         if block not in spec.blocks:
             known = ", ".join(sorted(spec.blocks)) or "none"
-            problems.append(Problem(f, 0, block, f"--set {key}",
-                                    f"no block named {block!r} in the graph (blocks: {known})"))
+            problems.append(
+                Problem(
+                    f,
+                    0,
+                    block,
+                    f"--set {key}",
+                    f"no block named {block!r} in the graph (blocks: {known})",
+                )
+            )
             continue
         spec.blocks[block].params[param] = value
         spec.blocks[block].param_lines.setdefault(param, 0)
@@ -149,29 +164,44 @@ def validate(spec: GraphSpec, overrides: dict[str, Any] | None = None) -> Graph:
         connected = {e.dst_port for e in edges if e.dst == name}
         for port in cls.inputs.values():
             if port.required and port.name not in connected:
-                problems.append(Problem(f, spec.blocks[name].line, name, f"port '{port.name}'",
-                                        f"required input is not connected (expects "
-                                        f"{port.type.describe()})"))
+                problems.append(
+                    Problem(
+                        f,
+                        spec.blocks[name].line,
+                        name,
+                        f"port '{port.name}'",
+                        f"required input is not connected (expects {port.type.describe()})",
+                    )
+                )
 
     g = nx.DiGraph()
     g.add_edges_from((e.src, e.dst) for e in edges)
     for cycle in nx.simple_cycles(g):
         path = " -> ".join([*cycle, cycle[0]])
-        problems.append(Problem(f, spec.blocks[cycle[0]].line, cycle[0], "connections",
-                                f"cycle: {path}"))
+        problems.append(
+            Problem(f, spec.blocks[cycle[0]].line, cycle[0], "connections", f"cycle: {path}")
+        )
 
     sources = sorted(n for n, c in classes.items() if c.beam_source)
     if classes and len(sources) != 1 and not problems:
-        problems.append(Problem(f, 0, "", "blocks",
-                                "expected exactly one block that defines the beams (a scan), "
-                                f"found {len(sources)}: {', '.join(sources) or 'none'}"))
+        problems.append(
+            Problem(
+                f,
+                0,
+                "",
+                "blocks",
+                "expected exactly one block that defines the beams (a scan), "
+                f"found {len(sources)}: {', '.join(sources) or 'none'}",
+            )
+        )
     if problems:
         raise GraphError(problems)
     return Graph(spec, classes, params, edges)
 
 
-def _check_params(spec: GraphSpec, name: str, cls: type[Block],
-                  problems: list[Problem]) -> dict[str, Any]:
+def _check_params(
+    spec: GraphSpec, name: str, cls: type[Block], problems: list[Problem]
+) -> dict[str, Any]:
     f = spec.file
     b = spec.blocks[name]
     values: dict[str, Any] = {}
@@ -180,15 +210,23 @@ def _check_params(spec: GraphSpec, name: str, cls: type[Block],
         decl = cls.params.get(key)
         if decl is None:
             near = [p for p in cls.params if p.startswith(key[:3])] or sorted(cls.params)
-            problems.append(Problem(f, line, name, f"parameter '{key}'",
-                                    f"unknown parameter of {b.type}; known: {', '.join(near)}"))
+            problems.append(
+                Problem(
+                    f,
+                    line,
+                    name,
+                    f"parameter '{key}'",
+                    f"unknown parameter of {b.type}; known: {', '.join(near)}",
+                )
+            )
             continue
         value = raw
         if isinstance(raw, str) and raw.startswith("$"):
             var = raw[1:]
             if var not in spec.variables:
-                problems.append(Problem(f, line, name, f"parameter '{key}'",
-                                        f"undefined variable ${var}"))
+                problems.append(
+                    Problem(f, line, name, f"parameter '{key}'", f"undefined variable ${var}")
+                )
                 continue
             value = spec.variables[var]
         if decl.type == "float" and isinstance(value, int) and not isinstance(value, bool):
@@ -200,38 +238,73 @@ def _check_params(spec: GraphSpec, name: str, cls: type[Block],
         values[key] = value
     for decl in cls.params.values():
         if decl.required and decl.name not in b.params:
-            problems.append(Problem(f, b.line, name, f"parameter '{decl.name}'",
-                                    f"required parameter missing ({decl.doc})"))
+            problems.append(
+                Problem(
+                    f,
+                    b.line,
+                    name,
+                    f"parameter '{decl.name}'",
+                    f"required parameter missing ({decl.doc})",
+                )
+            )
     return values
 
 
-def _resolve(spec: GraphSpec, end: Endpoint, ports: dict[str, Any], side: str,
-             line: int, problems: list[Problem]) -> str | None:
+def _resolve(
+    spec: GraphSpec,
+    end: Endpoint,
+    ports: dict[str, Any],
+    side: str,
+    line: int,
+    problems: list[Problem],
+) -> str | None:
     if end.port is None:
         if len(ports) == 1:
             return next(iter(ports))
         listed = ", ".join(ports) or "none"
-        problems.append(Problem(spec.file, line, end.block, f"{side}s",
-                                f"name the port: the block has {len(ports)} {side}s ({listed})"))
+        problems.append(
+            Problem(
+                spec.file,
+                line,
+                end.block,
+                f"{side}s",
+                f"name the port: the block has {len(ports)} {side}s ({listed})",
+            )
+        )
         return None
     if end.port not in ports:
         listed = ", ".join(ports) or "none"
-        problems.append(Problem(spec.file, line, end.block, f"port '{end.port}'",
-                                f"no {side} port named {end.port!r}; {side}s: {listed}"))
+        problems.append(
+            Problem(
+                spec.file,
+                line,
+                end.block,
+                f"port '{end.port}'",
+                f"no {side} port named {end.port!r}; {side}s: {listed}",
+            )
+        )
         return None
     return end.port
 
 
-def _check_connections(spec: GraphSpec, classes: dict[str, type[Block]],
-                       problems: list[Problem]) -> list[Edge]:
+def _check_connections(
+    spec: GraphSpec, classes: dict[str, type[Block]], problems: list[Problem]
+) -> list[Edge]:
     edges = []
     fed: dict[tuple[str, str], ConnectionSpec] = {}
     for c in spec.connections:
         ok = True
         for end in (c.src, c.dst):
             if end.block not in spec.blocks:
-                problems.append(Problem(spec.file, c.line, end.block, f"connection '{c}'",
-                                        f"no block named {end.block!r}"))
+                problems.append(
+                    Problem(
+                        spec.file,
+                        c.line,
+                        end.block,
+                        f"connection '{c}'",
+                        f"no block named {end.block!r}",
+                    )
+                )
                 ok = False
         if not ok or c.src.block not in classes or c.dst.block not in classes:
             continue
@@ -243,14 +316,27 @@ def _check_connections(spec: GraphSpec, classes: dict[str, type[Block]],
         out_t, in_t = src_cls.outputs[sp].type, dst_cls.inputs[dp].type
         diff = out_t.mismatch(in_t)
         if diff:
-            problems.append(Problem(
-                spec.file, c.line, c.dst.block, f"port '{dp}'",
-                f"incompatible types in '{c}': output {c.src.block}.{sp} is "
-                f"{out_t.describe()}, input expects {in_t.describe()} ({'; '.join(diff)})"))
+            problems.append(
+                Problem(
+                    spec.file,
+                    c.line,
+                    c.dst.block,
+                    f"port '{dp}'",
+                    f"incompatible types in '{c}': output {c.src.block}.{sp} is "
+                    f"{out_t.describe()}, input expects {in_t.describe()} ({'; '.join(diff)})",
+                )
+            )
             continue
         if (c.dst.block, dp) in fed:
-            problems.append(Problem(spec.file, c.line, c.dst.block, f"port '{dp}'",
-                                    f"input already fed by '{fed[(c.dst.block, dp)]}'"))
+            problems.append(
+                Problem(
+                    spec.file,
+                    c.line,
+                    c.dst.block,
+                    f"port '{dp}'",
+                    f"input already fed by '{fed[(c.dst.block, dp)]}'",
+                )
+            )
             continue
         fed[(c.dst.block, dp)] = c
         edges.append(Edge(c.src.block, sp, c.dst.block, dp))

@@ -42,8 +42,13 @@ class Problem:
         return f"{where}: {what}: {self.message}" if what else f"{where}: {self.message}"
 
     def to_json(self) -> dict[str, Any]:
-        return {"file": self.file, "line": self.line, "block": self.block, "item": self.item,
-                "message": self.message}
+        return {
+            "file": self.file,
+            "line": self.line,
+            "block": self.block,
+            "item": self.item,
+            "message": self.message,
+        }
 
 
 @dataclass
@@ -109,7 +114,8 @@ class _Dumper(yaml.SafeDumper):
 
 _Dumper.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456789."))
 
-_CONNECTION = re.compile(r"^\s*([A-Za-z_][\w-]*)(?:\.(\w+))?\s*->\s*([A-Za-z_][\w-]*)(?:\.(\w+))?\s*$")
+_ENDPOINT = r"([A-Za-z_][\w-]*)(?:\.(\w+))?"
+_CONNECTION = re.compile(rf"^\s*{_ENDPOINT}\s*->\s*{_ENDPOINT}\s*$")
 _NAME = re.compile(r"^[A-Za-z_][\w-]*$")
 
 
@@ -149,21 +155,27 @@ def parse(text: str, file: str = "<graph>") -> GraphSpec:
         spec.problem(line, f"malformed YAML: {problem}")
         return spec
     if not isinstance(root, yaml.MappingNode):
-        spec.problem(_line(root) if root else 1,
-                     "expected a mapping with keys 'format', 'blocks' and 'connections'")
+        spec.problem(
+            _line(root) if root else 1,
+            "expected a mapping with keys 'format', 'blocks' and 'connections'",
+        )
         return spec
     sections = {k.value: (k, v) for k, v in root.value}
     for key, (knode, _) in sections.items():
         if key not in ("format", "variables", "blocks", "connections"):
-            spec.problem(_line(knode), f"unknown top-level key {key!r} "
-                         "(expected format, variables, blocks, connections)")
+            spec.problem(
+                _line(knode),
+                f"unknown top-level key {key!r} (expected format, variables, blocks, connections)",
+            )
     if "format" not in sections:
         spec.problem(1, f"missing 'format: {FORMAT}'")
     else:
         spec.format = str(_value(sections["format"][1]))
         if spec.format != FORMAT:
-            spec.problem(_line(sections["format"][1]),
-                         f"unknown format version {spec.format!r}, expected {FORMAT!r}")
+            spec.problem(
+                _line(sections["format"][1]),
+                f"unknown format version {spec.format!r}, expected {FORMAT!r}",
+            )
     if "variables" in sections:
         node = sections["variables"][1]
         if isinstance(node, yaml.MappingNode):
@@ -202,8 +214,9 @@ def _read_blocks(spec: GraphSpec, node: yaml.Node) -> None:
         fields = {k.value: (k, v) for k, v in vnode.value}
         for key, (k, _) in fields.items():
             if key not in ("type", "params"):
-                spec.problem(_line(k), f"unknown key {key!r} (expected 'type' and 'params')",
-                             block=name)
+                spec.problem(
+                    _line(k), f"unknown key {key!r} (expected 'type' and 'params')", block=name
+                )
         if "type" not in fields:
             spec.problem(line, "missing 'type'", block=name)
             continue
@@ -229,11 +242,13 @@ def _read_connections(spec: GraphSpec, node: yaml.Node) -> None:
         text = item.value if isinstance(item, yaml.ScalarNode) else None
         m = _CONNECTION.match(text) if isinstance(text, str) else None
         if not m:
-            spec.problem(_line(item), f"cannot read connection {text!r}, expected "
-                         "'block.port -> block.port'")
+            spec.problem(
+                _line(item), f"cannot read connection {text!r}, expected 'block.port -> block.port'"
+            )
             continue
-        spec.connections.append(ConnectionSpec(Endpoint(m[1], m[2]), Endpoint(m[3], m[4]),
-                                               _line(item)))
+        spec.connections.append(
+            ConnectionSpec(Endpoint(m[1], m[2]), Endpoint(m[3], m[4]), _line(item))
+        )
 
 
 def dumps(spec: GraphSpec) -> str:
@@ -258,6 +273,5 @@ def dumps(spec: GraphSpec) -> str:
 
 
 def _flow(value: Any) -> str:
-    text = yaml.dump(value, Dumper=_Dumper, default_flow_style=True, sort_keys=False,
-                     width=10**9)
+    text = yaml.dump(value, Dumper=_Dumper, default_flow_style=True, sort_keys=False, width=10**9)
     return text.strip().removesuffix("...").strip()

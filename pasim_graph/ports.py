@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 #: The dimension along which an executor splits a scan into chunks. A port whose type has it
 #: carries one chunk of beams; a port without it carries data shared by every chunk.
@@ -60,7 +60,12 @@ class PortType:
         return f"{self.kind}[{self.dtype}; ({dims}); {self.units}]"
 
     def to_json(self) -> dict[str, Any]:
-        return {"kind": self.kind, "dtype": self.dtype, "dims": list(self.dims), "units": self.units}
+        return {
+            "kind": self.kind,
+            "dtype": self.dtype,
+            "dims": list(self.dims),
+            "units": self.units,
+        }
 
 
 def _fmt(value: Any) -> str:
@@ -79,8 +84,12 @@ class Input:
     name: str = ""
 
     def to_json(self) -> dict[str, Any]:
-        return {"name": self.name, "type": self.type.to_json(), "doc": self.doc,
-                "required": self.required}
+        return {
+            "name": self.name,
+            "type": self.type.to_json(),
+            "doc": self.doc,
+            "required": self.required,
+        }
 
 
 @dataclass(frozen=True)
@@ -98,8 +107,12 @@ class Output:
     name: str = ""
 
     def to_json(self) -> dict[str, Any]:
-        return {"name": self.name, "type": self.type.to_json(), "doc": self.doc,
-                "store": self.store}
+        return {
+            "name": self.name,
+            "type": self.type.to_json(),
+            "doc": self.doc,
+            "store": self.store,
+        }
 
 
 _PY_TYPES: dict[str, tuple[type, ...]] = {
@@ -146,11 +159,12 @@ class Param:
 
     def check(self, value: Any) -> str | None:
         """Return what is wrong with ``value``, or ``None`` when it is acceptable."""
-        kinds = _PY_TYPES[self.type]
+        kinds: tuple[type, ...] = _PY_TYPES[self.type]
         if isinstance(value, bool) and self.type != "bool":
             return f"expected {self.type}, found bool {value!r}"
         if not isinstance(value, kinds):
             return f"expected {self.type}, found {type(value).__name__} {value!r}"
+        value = cast(Any, value)  # isinstance on a runtime tuple narrows to object
         if self.type == "float" and not math.isfinite(float(value)):
             return f"expected a finite number, found {value!r}"
         if self.type == "path" and value and not os.path.exists(value):
@@ -165,9 +179,14 @@ class Param:
         return None
 
     def to_json(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"name": self.name, "type": self.type, "default": self.default,
-                               "units": self.units, "doc": self.doc,
-                               "required": self.required}
+        out: dict[str, Any] = {
+            "name": self.name,
+            "type": self.type,
+            "default": self.default,
+            "units": self.units,
+            "doc": self.doc,
+            "required": self.required,
+        }
         if self.min is not None:
             out["minimum"] = self.min
         if self.max is not None:

@@ -18,16 +18,22 @@ import xarray as xr
 from .ports import BEAM_DIM
 
 _SITE = ("latitude", "longitude", "altitude")
-_ROOT_VARS = ("time_coverage_start", "time_coverage_end", "volume_number", "platform_type",
-              "instrument_type")
+_ROOT_VARS = (
+    "time_coverage_start",
+    "time_coverage_end",
+    "volume_number",
+    "platform_type",
+    "instrument_type",
+)
 
 
 class StoreExistsError(FileExistsError):
     pass
 
 
-def write_volume(path: str | Path, sweep: xr.Dataset, attrs: dict[str, Any],
-                 overwrite: bool = False) -> None:
+def write_volume(
+    path: str | Path, sweep: xr.Dataset, attrs: dict[str, Any], overwrite: bool = False
+) -> None:
     """Write one sweep and the root group to a Zarr store (``attrs`` go on the root)."""
     path = Path(path)
     if path.exists():

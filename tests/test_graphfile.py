@@ -25,8 +25,13 @@ def test_parse_reads_names_values_and_lines():
     assert spec.blocks["tx"].params == {"width_s": 1.6e-6}
     assert spec.blocks["hpa"].line == 5
     c = spec.connections[1]
-    assert (c.src.block, c.src.port, c.dst.block, c.dst.port, c.line) == ("tx", None, "hpa",
-                                                                           None, 8)
+    assert (c.src.block, c.src.port, c.dst.block, c.dst.port, c.line) == (
+        "tx",
+        None,
+        "hpa",
+        None,
+        8,
+    )
 
 
 def test_dump_is_canonical_and_round_trips():
@@ -37,8 +42,8 @@ def test_dump_is_canonical_and_round_trips():
     lines = text.splitlines()
     assert lines[0] == "format: pasim-graph/1"
     # Blocks sorted by name, connections sorted.
-    assert lines.index("  hpa: {type: amplifier.saleh}") < [i for i, s in enumerate(lines)
-                                                            if s.startswith("  tx:")][0]
+    tx_line = next(i for i, s in enumerate(lines) if s.startswith("  tx:"))
+    assert lines.index("  hpa: {type: amplifier.saleh}") < tx_line
     assert lines[-2:] == ["  - tx -> hpa", "  - tx.pulse -> hpa.pulse_in"]
 
 

@@ -7,8 +7,8 @@ import json
 import pytest
 
 from pasim_graph import GraphError, load
-from pasim_graph.graphfile import parse
 from pasim_graph.graph import validate
+from pasim_graph.graphfile import parse
 
 from .conftest import FIXTURES, GRAPHS, run_cli
 
@@ -17,13 +17,19 @@ BROKEN = FIXTURES / "broken"
 # fixture -> words the message must contain (the culprit and what was expected)
 CASES = {
     "garbage.yaml": ["garbage.yaml:", "malformed YAML"],
-    "unknown_type.yaml": ["block 'tx'", "unknown block type 'waveform.rectangulr'",
-                          "waveform.rectangular"],
-    "unknown_param.yaml": ["block 'tx'", "parameter 'pulse_width'", "unknown parameter",
-                           "width_s"],
+    "unknown_type.yaml": [
+        "block 'tx'",
+        "unknown block type 'waveform.rectangulr'",
+        "waveform.rectangular",
+    ],
+    "unknown_param.yaml": ["block 'tx'", "parameter 'pulse_width'", "unknown parameter", "width_s"],
     "unknown_port.yaml": ["block 'tx'", "port 'waveform'", "pulse"],
-    "incompatible.yaml": ["block 'antenna'", "port 'beams'", "incompatible types",
-                          "kind 'pulse' vs 'beams'"],
+    "incompatible.yaml": [
+        "block 'antenna'",
+        "port 'beams'",
+        "incompatible types",
+        "kind 'pulse' vs 'beams'",
+    ],
     "cycle.yaml": ["cycle"],
     "bad_version.yaml": ["unknown format version 'pasim-graph/9'"],
 }
@@ -95,8 +101,14 @@ def test_run_with_broken_graph_exits_2_before_computing(tmp_path):
 
 
 def test_missing_truth_file_is_named(tmp_path):
-    res = run_cli("run", str(GRAPHS / "generic_radar.yaml"), "--truth", "/no/such/file",
-                  "--out", str(tmp_path / "x.zarr"))
+    res = run_cli(
+        "run",
+        str(GRAPHS / "generic_radar.yaml"),
+        "--truth",
+        "/no/such/file",
+        "--out",
+        str(tmp_path / "x.zarr"),
+    )
     assert res.returncode == 2
     assert "/no/such/file" in res.stderr and "no such file" in res.stderr
 
