@@ -5,7 +5,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.signal
 import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output
@@ -40,6 +39,8 @@ class MatchedFilter(Block):
     range_response = Output(RANGE_RESPONSE, doc="|y|^2 against range offset; noise bandwidth")
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
+        import scipy.signal  # slow to import; listing and validating blocks must not pay
+
         tx, ref = inputs["pulse"], inputs["reference"]
         fs = float(ref.attrs["sample_rate_hz"])
         if float(tx.attrs["sample_rate_hz"]) != fs:

@@ -6,7 +6,6 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-import xradar.model as xm
 
 from pasim_graph import Block, Chunk, Input, Output
 
@@ -84,6 +83,8 @@ class PulsePairProcessor(Block):
     moments = Output(MOMENTS, store="moments", doc="estimated moments")
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
+        import xradar.model as xm  # heavy; listing and validating blocks must not pay for it
+
         iq, noise = inputs["iq"], inputs["noise_power"]
         cal = inputs["calibration"]
         prt = float(inputs["beams"]["prt"].values[0])

@@ -6,7 +6,6 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-import xradar.model as xm
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
@@ -65,6 +64,8 @@ class PPISector(Block):
         return (self.p["azimuth_start_deg"] + step * (np.arange(self.n_beams) + 0.5)) % 360.0
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
+        import xradar.model as xm  # heavy; listing and validating blocks must not pay for it
+
         az = self.nominal_azimuths()
         truth = inputs.get("truth")
         start = np.datetime64("2000-01-01T00:00:00", "ns")

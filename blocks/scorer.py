@@ -6,7 +6,6 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-import xradar.model as xm
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
@@ -71,6 +70,8 @@ class NexradScorer(Block):
     )
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
+        import xradar.model as xm  # heavy; listing and validating blocks must not pay for it
+
         est, truth, beams = inputs["moments"], inputs["truth"], inputs["beams"]
         radials = truth["azimuth"].values
         az = beams["azimuth"].values

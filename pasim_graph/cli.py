@@ -16,10 +16,8 @@ from pathlib import Path
 from typing import Any
 
 from . import __version__, registry
-from .executor import LocalExecutor, RunOptions
 from .graph import Graph, GraphError, parse_overrides, validate
 from .graphfile import Problem, read
-from .store import StoreExistsError, open_volume, summarize, write_volume
 
 EXIT_USAGE = 2
 
@@ -121,6 +119,9 @@ def cmd_blocks(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from .executor import LocalExecutor, RunOptions
+    from .store import StoreExistsError, open_volume, summarize, write_volume
+
     graph = _graph(args)
     out = Path(args.out)
     if out.exists() and not args.overwrite:
@@ -157,6 +158,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_score(args: argparse.Namespace) -> int:
+    from .store import open_volume, summarize
+
     try:
         tree = open_volume(args.store)
     except (FileNotFoundError, OSError, ValueError) as exc:
