@@ -92,7 +92,55 @@ def gaussian_acf_factors(
     a = (np.pi * prt_s / wavelength_m) ** 2
     cov = np.exp(-8.0 * a * width_ms[:, None, None] ** 2 * lag[None] ** 2)
     cov += JITTER * np.eye(pulses)
-    return np.linalg.cholesky(cov).astype(np.float32)
+    factors = np.linalg.cholesky(cov)
+    # Entries this small change nothing, but as float32 subnormals they slow every product
+    # with them a hundredfold.
+    factors[np.abs(factors) < 1e-20] = 0.0
+    return factors.astype(np.float32)
+
+
+class FactorCache:
+    """Cholesky factors of eq. 13 per distinct spectrum width, shared by cells and beams.
+
+    Level-II widths come in 0.5 m/s steps, so a sweep holds a few dozen distinct values: one
+    factorisation per value is exact and replaces one per cell. Factors are computed the first
+    time a width is needed.
+    """
+
+    def __init__(
+        self, width_ms: np.ndarray, echo: np.ndarray, prt_s: float, wavelength_m: float, pulses: int
+    ):
+        self.widths, codes = np.unique(width_ms[echo], return_inverse=True)
+        self.code = np.full(echo.shape, -1, np.int64)
+        self.code[echo] = codes.ravel()
+        self.args = (prt_s, wavelength_m, pulses)
+        self.factors: dict[int, np.ndarray] = {}
+
+    def colour(self, codes: np.ndarray, gen: np.random.Generator) -> np.ndarray:
+        """Draw coloured sequences for cells with width codes ``codes``: (cell, 4, pulse).
+
+        Cells are drawn grouped by width so each group is one matrix product on contiguous
+        memory; the four rows per cell are the real and imaginary parts of V1 and V2.
+        """
+        pulses = self.args[2]
+        order = np.argsort(codes, kind="stable")
+        sorted_codes = codes[order]
+        bounds = np.flatnonzero(np.diff(sorted_codes)) + 1
+        starts = np.concatenate([[0], bounds])
+        stops = np.concatenate([bounds, [codes.size]])
+        missing = [int(c) for c in sorted_codes[starts] if int(c) not in self.factors]
+        if missing:
+            new = gaussian_acf_factors(self.widths[missing], *self.args)
+            self.factors.update(zip(missing, new, strict=True))
+        white = gen.standard_normal((codes.size, 4, pulses), dtype=np.float32)
+        out = np.empty_like(white)
+        for a, b in zip(starts, stops, strict=True):
+            factor = self.factors[int(sorted_codes[a])]
+            out[a:b] = (white[a:b].reshape(-1, pulses) @ factor.T).reshape(b - a, 4, pulses)
+        # Back to the callers' cell order.
+        result = np.empty_like(out)
+        result[order] = out
+        return result
 
 
 class WeatherChannel(Block):
@@ -181,12 +229,13 @@ class WeatherChannel(Block):
         d_az = pattern["azimuth_offset_deg"].values
         d_el = pattern["elevation_offset_deg"].values
         support = max(abs(d_az[0]), abs(d_az[-1])) + width_deg / 2
-        factors: dict[int, np.ndarray] = {}
+        factors = FactorCache(np.clip(field["WRADH"], 0, None), echo, prt, lam, pulses)
+        phase_dp = np.exp(1j * np.deg2rad(field["PHIDP"]))
 
         n_b, n_g = beams.sizes["beam"], rng_m.size
         iq = np.zeros((n_b, n_g, pulses, 2), np.complex64)
         power = np.zeros((n_b, n_g, 2), np.float64)
-        m = np.arange(pulses)
+        m = np.arange(pulses)[None, :]
         for i, beam in enumerate(chunk.beams):
             gen = chunk.rng(int(beam))
             az_b = float(beams["azimuth"].values[i])
@@ -197,28 +246,30 @@ class WeatherChannel(Block):
             omega = cell_solid_angles(profile, d_az, delta[near], width_deg)
             keep = omega.max(axis=0) >= omega.max() * 10 ** (self.p["support_db"] / 10)
             near, omega = near[keep], omega[:, keep]
-            volts = np.zeros((2, n_g, pulses), np.complex128)
-            for jj, j in enumerate(near):
-                gates = np.flatnonzero(echo[j])
-                if gates.size == 0:
-                    continue
-                if j not in factors:
-                    factors[j] = gaussian_acf_factors(
-                        np.clip(field["WRADH"][j, gates], 0, None), prt, lam, pulses
-                    )
-                white = gen.standard_normal((gates.size, pulses, 4), dtype=np.float32)
-                y = np.matmul(factors[j], white) * np.float32(np.sqrt(0.5))
-                doppler = np.exp(-4j * np.pi * field["VRADH"][j, gates, None] * m * prt / lam)
-                x1 = (y[..., 0] + 1j * y[..., 1]) * doppler
-                x2 = (y[..., 2] + 1j * y[..., 3]) * doppler
-                r = rho[j, gates, None]
-                volts[0, gates] += np.sqrt(s_h[j, gates, None] * omega[0, jj]) * x1
-                volts[1, gates] += (
-                    np.sqrt(s_v[j, gates, None] * omega[1, jj])
-                    * (r * x1 + np.sqrt(1 - r**2) * x2)
-                    * np.exp(1j * np.deg2rad(field["PHIDP"][j, gates, None]))
-                )
             cell_power = np.stack([omega[0] @ s_h[near], omega[1] @ s_v[near]])
+            # Cells ordered by gate, then radial, so that each gate's sum is one segment.
+            gg, jj = np.nonzero(echo[near].T)
+            volts = np.zeros((2, n_g, pulses), np.complex64)
+            if gg.size:
+                rows = near[jj]
+                y = factors.colour(factors.code[rows, gg], gen)
+                doppler = np.exp(
+                    (-4j * np.pi * prt / lam) * (field["VRADH"][rows, gg][:, None] * m)
+                ).astype(np.complex64)
+                x1 = (y[:, 0] + 1j * y[:, 1]) * doppler
+                x2 = (y[:, 2] + 1j * y[:, 3]) * doppler
+                r = rho[rows, gg][:, None].astype(np.float32)
+                # sqrt(1/2): the white sequences have unit variance per real component.
+                a_h = np.sqrt(0.5 * s_h[rows, gg] * omega[0, jj]).astype(np.float32)
+                a_v = (np.sqrt(0.5 * s_v[rows, gg] * omega[1, jj]) * phase_dp[rows, gg]).astype(
+                    np.complex64
+                )
+                starts = np.flatnonzero(np.diff(gg, prepend=-1))
+                gates = gg[starts]
+                volts[0, gates] = np.add.reduceat(a_h[:, None] * x1, starts, axis=0)
+                volts[1, gates] = np.add.reduceat(
+                    a_v[:, None] * (r * x1 + np.sqrt(1 - r**2) * x2), starts, axis=0
+                )
             for k, rk in zip(k_off, r_k, strict=True):
                 lo, hi = max(0, -k), min(n_g, n_g - k)
                 iq[i, lo:hi] += np.moveaxis(np.sqrt(rk) * volts[:, lo + k : hi + k], 0, -1)
