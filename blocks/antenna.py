@@ -88,19 +88,33 @@ class PencilBeamAntenna(Block):
     grid_step_deg = Param(0.05, units="deg", min=0.001, max=1.0, doc="pattern grid step")
 
     def setup(self) -> None:
-        from .patterns import PencilBeam, pencil_beam_power
+        from .patterns import PencilBeam
 
-        beam = PencilBeam.design(self.p["beamwidth_deg"], self.p["first_sidelobe_db"])
+        self.beam = PencilBeam.design(self.p["beamwidth_deg"], self.p["first_sidelobe_db"])
         self.d_az = offsets(self.p["support_deg"], self.p["grid_step_deg"])
         self.d_el = self.d_az.copy()
-        self.power = pencil_beam_power(
-            self.d_az[None, :], self.d_el[:, None], beam, el0_deg=0.0
-        ).astype(np.float32)
-        self.omega = two_way_solid_angle(self.power, self.d_az, self.d_el, 0.0)
+        self._by_elevation: dict[float, np.ndarray] = {}
+        self.omega = two_way_solid_angle(self._power(0.0), self.d_az, self.d_el, 0.0)
+
+    def _power(self, elevation_deg: float) -> np.ndarray:
+        from .patterns import pencil_beam_power
+
+        # Azimuth offsets shrink into smaller angles as the beam rises (by cos el), so the
+        # pattern on the offset grid depends on the beam's elevation; cached per elevation.
+        if elevation_deg not in self._by_elevation:
+            self._by_elevation[elevation_deg] = pencil_beam_power(
+                self.d_az[None, :], self.d_el[:, None], self.beam, el0_deg=elevation_deg
+            ).astype(np.float32)
+        return self._by_elevation[elevation_deg]
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        n = inputs["beams"].sizes["beam"]
-        power = np.broadcast_to(self.power, (n, 2, *self.power.shape))
+        elevations = inputs["beams"]["elevation"].values
+        power = np.stack(
+            [
+                np.broadcast_to(self._power(float(e)), (2, *self.d_el.shape, *self.d_az.shape))
+                for e in elevations
+            ]
+        )
         ds = pattern_dataset(
             power,
             self.d_az,

@@ -17,9 +17,10 @@ class MatchedFilter(Block):
 
     The filter is h = conj(reference reversed) / sum|reference|^2, so an undistorted pulse gives
     a peak of 1 and white noise of density N0 comes out with power N0 * B, B = fs / sum|ref|^2
-    (1/tau for a rectangular pulse). The echo of a point at range offset dr is the
-    cross-correlation y of the radiated pulse with the reference at lag 2 dr / c; a gate's range
-    weighting is |y|^2 (range sidelobes and amplifier distortion included).
+    (1/tau for a rectangular pulse). A point dr beyond a gate arrives 2 dr / c late, so the gate
+    sees it through the cross-correlation y of the radiated pulse with the reference at lag
+    -2 dr / c; the gate's range weighting is |y|^2 (range sidelobes and amplifier distortion
+    included), listed against dr in increasing order.
 
     Inputs
     ------
@@ -48,11 +49,14 @@ class MatchedFilter(Block):
         s = tx["envelope"].values
         r = ref["envelope"].values
         energy = float(np.sum(np.abs(r) ** 2))
+        lag = np.arange(-(r.size - 1), s.size)
         y = scipy.signal.correlate(s, r, mode="full") / energy
-        lags = np.arange(-(r.size - 1), s.size)
+        # Offset dr = -lag c / (2 fs); reversed so that offsets increase.
+        offset_m = (-lag / fs * SPEED_OF_LIGHT / 2.0)[::-1]
+        y = y[::-1]
         ds = xr.Dataset(
             {"power_weight": ("offset", np.abs(y) ** 2), "voltage": ("offset", y)},
-            coords={"offset_m": ("offset", lags / fs * SPEED_OF_LIGHT / 2.0)},
+            coords={"offset_m": ("offset", offset_m)},
             attrs={"noise_bandwidth_hz": fs / energy, "sample_rate_hz": fs},
         )
         return {"range_response": ds}

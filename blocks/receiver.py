@@ -1,4 +1,4 @@
-"""Receivers: thermal noise and gain at the matched-filter output."""
+"""Receivers: thermal noise at the matched-filter output."""
 
 from __future__ import annotations
 
@@ -13,7 +13,10 @@ from .signals import BOLTZMANN, IQ, IQ_CUBE, NOISE_POWER, POLARIZATIONS, RANGE_R
 
 
 class Receiver(Block):
-    """Adds thermal noise k T0 F B (B: the matched filter's noise bandwidth) and applies gain.
+    """Adds thermal noise k T0 F B (B: the matched filter's noise bandwidth).
+
+    Everything is referred to the receiver input: a linear gain scales echo and noise alike and
+    changes no moment, so it is left out until the receiver models saturation and the ADC.
 
     Both channels have the same noise figure and bandwidth. Noise is circular complex
     Gaussian, independent per gate, pulse and channel, from each beam's own random stream.
@@ -28,7 +31,7 @@ class Receiver(Block):
     Outputs
     -------
     iq : iq
-        Echo plus noise, times the receiver gain.
+        Echo plus noise.
     noise_power : noise_power
         Noise power per channel at the output (W).
     iq_store : iq_cube
@@ -42,20 +45,17 @@ class Receiver(Block):
     iq_store = Output(IQ_CUBE, store="iq", doc="I/Q cubes to store")
 
     noise_figure_db = Param(2.7, units="dB", min=0.0, max=30.0, doc="receiver noise figure")
-    gain_db = Param(0.0, units="dB", min=-100.0, max=200.0, doc="receiver gain")
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         echo = inputs["iq_in"]
         bandwidth = float(inputs["range_response"].attrs["noise_bandwidth_hz"])
         noise = BOLTZMANN * T0_K * 10 ** (self.p["noise_figure_db"] / 10) * bandwidth
-        gain = 10 ** (self.p["gain_db"] / 10)
         out = np.empty_like(echo)
         scale = np.float32(np.sqrt(noise / 2))
         for i, beam in enumerate(chunk.beams):
             w = chunk.rng(int(beam)).standard_normal((*echo.shape[1:], 2), dtype=np.float32)
             out[i] = echo[i] + scale * (w[..., 0] + 1j * w[..., 1])
-        out *= np.float32(np.sqrt(gain))
-        result: dict[str, Any] = {"iq": out, "noise_power": np.full(2, noise * gain)}
+        result: dict[str, Any] = {"iq": out, "noise_power": np.full(2, noise)}
         if chunk.options.get("save_iq"):
             dims = ("beam", "range", "pulse")
             result["iq_store"] = xr.Dataset(

@@ -56,8 +56,8 @@ def test_rectangular_pulse_samples_and_amplitude(width_s: float, rate_hz: float)
     assert pulse.attrs["sample_rate_hz"] == rate_hz
     # Sample times are k / fs, so the pulse spans width_s.
     np.testing.assert_allclose(pulse["time"].values, np.arange(env.size) / rate_hz)
-    # Energy of a rectangular pulse of unit amplitude: width x rate samples of power 1.
-    assert np.sum(np.abs(env) ** 2) == pytest.approx(width_s * rate_hz, rel=1e-9)
+    # The sampled pulse lasts the nominal width to within half a sample (rounding).
+    assert abs(env.size / rate_hz - width_s) <= 0.5 / rate_hz + 1e-15
 
 
 def test_ideal_amplifier_is_identity() -> None:
@@ -126,7 +126,7 @@ def test_saleh_compression_grows_towards_saturation() -> None:
         r = 10 ** (-b / 20) / np.sqrt(p["beta_a"])
         gain = np.abs(out[0]) * a_sat / r  # back to the un-normalised amplifier voltage gain
         compression.append(20 * np.log10(gain / p["alpha_a"]))
-    expected = -20 * np.log10(1 + p["beta_a"] * (10 ** (-backoffs / 20)) ** 2 / p["beta_a"])
+    expected = -20 * np.log10(1 + 10 ** (-backoffs / 10))  # beta_a r^2 = 10^(-backoff/10)
     np.testing.assert_allclose(compression, expected, atol=1e-10)
     assert np.all(np.diff(compression) > 0)
     assert compression[0] == pytest.approx(-20 * np.log10(2.0), abs=1e-10)  # 6.02 dB at r_sat
