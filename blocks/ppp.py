@@ -15,8 +15,8 @@ from .signals import BEAMS, CALIBRATION, IQ, MOMENTS, NOISE_POWER
 def pulse_pair(
     iq_h: np.ndarray,
     iq_v: np.ndarray,
-    noise_h: float,
-    noise_v: float,
+    noise_h: float | np.ndarray,
+    noise_v: float | np.ndarray,
     prt_s: float,
     wavelength_m: float,
 ) -> dict[str, np.ndarray]:
@@ -89,7 +89,7 @@ class PulsePairProcessor(Block):
         cal = inputs["calibration"]
         prt = float(inputs["beams"]["prt"].values[0])
         lam = float(cal.attrs["wavelength_m"])
-        est = pulse_pair(iq[..., 0], iq[..., 1], float(noise[0]), float(noise[1]), prt, lam)
+        est = pulse_pair(iq[..., 0], iq[..., 1], noise[..., 0], noise[..., 1], prt, lam)
         rng = cal["range"].values
         const = cal["radar_constant_db"].values  # beam x polarisation
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -9,53 +9,92 @@ import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
-from .signals import BOLTZMANN, IQ, IQ_CUBE, NOISE_POWER, POLARIZATIONS, RANGE_RESPONSE, T0_K
+from .signals import (
+    BOLTZMANN,
+    IQ,
+    IQ_CUBE,
+    NOISE_POWER,
+    POLARIZATIONS,
+    RANGE_RESPONSE,
+    SIGNAL_POWER,
+    T0_K,
+)
 
 
 class Receiver(Block):
-    """Adds thermal noise k T0 F B (B: the matched filter's noise bandwidth).
+    """Adds receiver noise: thermal k T0 F B, or a fixed SNR at every gate.
 
-    Everything is referred to the receiver input: a linear gain scales echo and noise alike and
-    changes no moment, so it is left out until the receiver models saturation and the ADC.
-
-    Both channels have the same noise figure and bandwidth. Noise is circular complex
-    Gaussian, independent per gate, pulse and channel, from each beam's own random stream.
+    By default the noise power is k T0 F B (B: the matched filter's noise bandwidth), the same
+    at every gate. With ``snr_db`` set, the noise power at each gate is the expected H-channel
+    echo power there divided by that SNR (estimator studies); both channels get the same noise
+    power, so V's SNR is lower by ZDR. Gates without echo then keep the thermal noise. Noise is
+    circular complex Gaussian, independent per gate, pulse and channel, drawn from each beam's
+    own random stream. Everything is referred to the receiver input: a linear gain scales echo
+    and noise alike and changes no moment, so it is left out until saturation and the ADC are
+    modelled.
 
     Inputs
     ------
-    iq : iq
+    iq_in : iq
         Noise-free echo voltages.
     range_response : range_response
         Gives the noise bandwidth of the matched filter.
+    signal_power : signal_power, optional
+        Expected echo power per gate; needed with ``snr_db``.
 
     Outputs
     -------
     iq : iq
         Echo plus noise.
     noise_power : noise_power
-        Noise power per channel at the output (W).
+        Noise power per gate and channel (W).
     iq_store : iq_cube
         H and V I/Q cubes for the output volume (only when the run saves I/Q).
     """
 
     iq_in = Input(IQ, doc="noise-free echo voltages")
     range_response = Input(RANGE_RESPONSE, doc="matched filter, for its noise bandwidth")
+    signal_power = Input(SIGNAL_POWER, required=False, doc="expected echo power (for snr_db)")
     iq = Output(IQ, doc="echo plus noise")
-    noise_power = Output(NOISE_POWER, doc="noise power per channel")
+    noise_power = Output(NOISE_POWER, doc="noise power per gate and channel")
     iq_store = Output(IQ_CUBE, store="iq", doc="I/Q cubes to store")
 
     noise_figure_db = Param(2.7, units="dB", min=0.0, max=30.0, doc="receiver noise figure")
+    snr_db = Param(
+        None,
+        units="dB",
+        min=-60.0,
+        max=150.0,
+        optional=True,
+        doc="hold the H-channel SNR at this value at every gate (default: thermal)",
+    )
+
+    @classmethod
+    def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
+        if params.get("snr_db") is not None and "signal_power" not in connected:
+            return [
+                (
+                    "parameter 'snr_db'",
+                    "needs the input 'signal_power' connected (the expected echo power)",
+                )
+            ]
+        return []
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         echo = inputs["iq_in"]
         bandwidth = float(inputs["range_response"].attrs["noise_bandwidth_hz"])
-        noise = BOLTZMANN * T0_K * 10 ** (self.p["noise_figure_db"] / 10) * bandwidth
+        thermal = BOLTZMANN * T0_K * 10 ** (self.p["noise_figure_db"] / 10) * bandwidth
+        noise = np.full((*echo.shape[:2], 2), thermal)
+        if self.p["snr_db"] is not None:
+            signal = inputs["signal_power"][..., 0].astype(np.float64)
+            fixed = signal / 10 ** (self.p["snr_db"] / 10)
+            noise[:] = np.where(signal > 0, fixed, thermal)[..., None]
         out = np.empty_like(echo)
-        scale = np.float32(np.sqrt(noise / 2))
+        scale = np.sqrt(noise / 2).astype(np.float32)[:, :, None, :]
         for i, beam in enumerate(chunk.beams):
             w = chunk.rng(int(beam)).standard_normal((*echo.shape[1:], 2), dtype=np.float32)
-            out[i] = echo[i] + scale * (w[..., 0] + 1j * w[..., 1])
-        result: dict[str, Any] = {"iq": out, "noise_power": np.full(2, noise)}
+            out[i] = echo[i] + scale[i] * (w[..., 0] + 1j * w[..., 1])
+        result: dict[str, Any] = {"iq": out, "noise_power": noise}
         if chunk.options.get("save_iq"):
             dims = ("beam", "range", "pulse")
             result["iq_store"] = xr.Dataset(

@@ -61,12 +61,12 @@ class NexradScorer(Block):
     min_reflectivity_dbz = Param(
         10.0,
         units="dBZ",
-        min=-50.0,
+        min=-100.0,
         max=100.0,
         doc="score gates with truth reflectivity at least this",
     )
     min_snr_db = Param(
-        10.0, units="dB", min=-50.0, max=100.0, doc="score gates with expected SNR at least this"
+        10.0, units="dB", min=-100.0, max=100.0, doc="score gates with expected SNR at least this"
     )
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
@@ -77,7 +77,7 @@ class NexradScorer(Block):
         az = beams["azimuth"].values
         nearest = np.argmin(np.abs((radials[None, :] - az[:, None] + 180) % 360 - 180), axis=1)
         with np.errstate(divide="ignore"):
-            snr = 10 * np.log10(inputs["signal_power"][..., 0] / inputs["noise_power"][0])
+            snr = 10 * np.log10(inputs["signal_power"][..., 0] / inputs["noise_power"][..., 0])
         ref = truth.isel(radial=nearest)
         n_est = est.sizes["range"]
         dbz_t = ref["DBZH"].values[:, :n_est]

@@ -31,8 +31,8 @@ IQ = PortType("iq", "complex64", ("beam", "range", "pulse", "polarization"), "sq
 IQ_CUBE = PortType("iq_cube", DATASET, ("beam", "range", "pulse"), "sqrt(W)")
 #: Expected (noise-free) signal power per gate and polarisation.
 SIGNAL_POWER = PortType("signal_power", "float32", ("beam", "range", "polarization"), "W")
-#: Receiver noise power per polarisation, at the matched-filter output.
-NOISE_POWER = PortType("noise_power", "float64", ("polarization",), "W")
+#: Receiver noise power per gate and polarisation, at the matched-filter output.
+NOISE_POWER = PortType("noise_power", "float64", ("beam", "range", "polarization"), "W")
 #: Radar constant per beam and polarisation, with the gate ranges.
 CALIBRATION = PortType("calibration", DATASET, ("beam", "range", "polarization"), "dB")
 #: Estimated moments on the beam x range grid, CfRadial names and attributes.

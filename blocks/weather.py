@@ -143,6 +143,91 @@ class FactorCache:
         return result
 
 
+class CellModel:
+    """Unit-power H and V slow-time series of truth cells, by one of the paper's two methods.
+
+    ``draw(rows, gates, gen)`` returns (h, v), each cell x pulse complex64, with E|h|^2 = 1
+    and E|v|^2 = 1 (powers and pattern weights are applied by the caller):
+
+    - ``covariance`` (eq. 13-18): V1, V2 coloured with the Cholesky factor of the Gaussian
+      autocorrelation, h = V1, v = [rho V1 + sqrt(1 - rho^2) V2] exp(j phi_DP).
+    - ``monte_carlo`` (eq. 5-12): ``drops`` equal drops per cell at random positions (uniform
+      phase), each with its own radial velocity drawn from N(mean velocity, width^2) and
+      moved every PRT; random backscatter phases with sigma_h = sigma_v = sigma / sqrt(2),
+      sigma = sqrt(-2 ln rho_hv), give rho_hv = exp(-sigma^2 / 2).
+    """
+
+    def __init__(
+        self,
+        method: str,
+        field: dict[str, np.ndarray],
+        rho: np.ndarray,
+        echo: np.ndarray,
+        prt_s: float,
+        wavelength_m: float,
+        pulses: int,
+        drops: int,
+    ):
+        self.method = method
+        self.field = field
+        self.rho = rho
+        self.prt_s, self.wavelength_m, self.pulses, self.drops = prt_s, wavelength_m, pulses, drops
+        self.phase_dp = np.exp(1j * np.deg2rad(field["PHIDP"]))
+        if method == "covariance":
+            self.factors = FactorCache(
+                np.clip(field["WRADH"], 0, None), echo, prt_s, wavelength_m, pulses
+            )
+
+    def draw(
+        self, rows: np.ndarray, gates: np.ndarray, gen: np.random.Generator
+    ) -> tuple[np.ndarray, np.ndarray]:
+        if self.method == "monte_carlo":
+            return self._drops(rows, gates, gen)
+        m = np.arange(self.pulses)[None, :]
+        y = self.factors.colour(self.factors.code[rows, gates], gen)
+        doppler = np.exp(
+            (-4j * np.pi * self.prt_s / self.wavelength_m)
+            * (self.field["VRADH"][rows, gates][:, None] * m)
+        ).astype(np.complex64)
+        # sqrt(1/2): the white sequences have unit variance per real component.
+        x1 = (y[:, 0] + 1j * y[:, 1]) * doppler * np.float32(np.sqrt(0.5))
+        x2 = (y[:, 2] + 1j * y[:, 3]) * doppler * np.float32(np.sqrt(0.5))
+        r = self.rho[rows, gates][:, None].astype(np.float32)
+        v = (r * x1 + np.sqrt(1 - r**2) * x2) * self.phase_dp[rows, gates][:, None]
+        return x1, v.astype(np.complex64)
+
+    def _drops(
+        self, rows: np.ndarray, gates: np.ndarray, gen: np.random.Generator
+    ) -> tuple[np.ndarray, np.ndarray]:
+        n, d, pulses = rows.size, self.drops, self.pulses
+        h = np.empty((n, pulses), np.complex64)
+        v = np.empty((n, pulses), np.complex64)
+        k = -4 * np.pi / self.wavelength_m
+        m = np.arange(pulses)
+        # Cells in batches, so the drops x pulses phasors of a batch stay small in memory.
+        batch = max(1, 2_000_000 // (d * pulses))
+        for a in range(0, n, batch):
+            b = min(n, a + batch)
+            rr, gg = rows[a:b], gates[a:b]
+            mean = self.field["VRADH"][rr, gg][:, None]
+            width = np.clip(self.field["WRADH"][rr, gg], 0, None)[:, None]
+            velocity = mean + width * gen.standard_normal((b - a, d))
+            position = gen.uniform(0.0, 2 * np.pi, (b - a, d))
+            sigma = np.sqrt(-2 * np.log(np.clip(self.rho[rr, gg], 1e-12, 1.0)) / 2)[:, None]
+            phi_h = sigma * gen.standard_normal((b - a, d))
+            phi_v = sigma * gen.standard_normal((b - a, d))
+            # Phase of each drop at each pulse: it moves velocity * PRT every pulse.
+            track = np.exp(1j * (position[..., None] + k * velocity[..., None] * (m * self.prt_s)))
+            scale = 1 / np.sqrt(d)
+            h[a:b] = scale * np.einsum("cd,cdm->cm", np.exp(1j * phi_h), track)
+            v[a:b] = (
+                scale
+                * np.einsum("cd,cdm->cm", np.exp(1j * phi_v), track)
+                * self.phase_dp[rr, gg][:, None]
+            )
+        return h, v
+
+
 class WeatherChannel(Block):
     """Echoes of the truth cells around each beam: paper's covariance method (eq. 13-18).
 
@@ -185,7 +270,15 @@ class WeatherChannel(Block):
     frequency_hz = Param(2.8e9, units="Hz", min=1e8, max=1e11, doc="carrier frequency")
     peak_power_w = Param(700e3, units="W", min=1e-3, max=1e8, doc="peak transmit power")
     loss_db = Param(0.0, units="dB", min=0.0, max=30.0, doc="two-way system losses")
-    method = Param("covariance", type="str", choices=("covariance",), doc="time-series method")
+    method = Param(
+        "covariance",
+        type="str",
+        choices=("covariance", "monte_carlo"),
+        doc="time series: covariance (paper eq. 13-18) or monte_carlo (eq. 5-12, drops)",
+    )
+    drops_per_cell = Param(
+        64, type="int", min=1, max=100_000, doc="drops per truth cell (monte_carlo only)"
+    )
     support_db = Param(
         -100.0,
         units="dB",
@@ -217,25 +310,32 @@ class WeatherChannel(Block):
         )
         k_off, r_k = range_weights(response, gate_m)
 
-        dbz = truth["DBZH"].values
+        # The truth is padded in range with its edge gates (the weather is taken to go on),
+        # so the first and last gates see neighbours like every other gate.
+        pad = int(np.max(np.abs(k_off)))
+        n_b, n_g = beams.sizes["beam"], rng_m.size
+
+        def padded(a: np.ndarray) -> np.ndarray:
+            return np.pad(a, ((0, 0), (pad, pad)), mode="edge")
+
+        dbz = padded(truth["DBZH"].values)
         echo = np.isfinite(dbz)
-        s_h = np.where(echo, k0 * 10 ** (np.nan_to_num(dbz, nan=-999.0) / 10), 0.0)
-        s_h /= rng_m[None, :] ** 2  # W per (sr m) before pattern and range weighting
-        field = {k: _filled(truth, k, echo) for k in FILL}
+        r2 = padded(np.broadcast_to(rng_m**2, truth["DBZH"].shape))
+        # W per (sr m) before pattern and range weighting.
+        s_h = np.where(echo, k0 * 10 ** (np.nan_to_num(dbz, nan=-999.0) / 10), 0.0) / r2
+        field = {k: padded(_filled(truth, k, np.isfinite(truth["DBZH"].values))) for k in FILL}
         zdr = 10 ** (np.clip(field["ZDR"], -8, 8) / 10)
         rho = np.clip(field["RHOHV"], 0.0, 1.0)
         s_v = s_h / zdr
+        cells = CellModel(
+            self.p["method"], field, rho, echo, prt, lam, pulses, self.p["drops_per_cell"]
+        )
 
         d_az = pattern["azimuth_offset_deg"].values
         d_el = pattern["elevation_offset_deg"].values
         support = max(abs(d_az[0]), abs(d_az[-1])) + width_deg / 2
-        factors = FactorCache(np.clip(field["WRADH"], 0, None), echo, prt, lam, pulses)
-        phase_dp = np.exp(1j * np.deg2rad(field["PHIDP"]))
-
-        n_b, n_g = beams.sizes["beam"], rng_m.size
         iq = np.zeros((n_b, n_g, pulses, 2), np.complex64)
         power = np.zeros((n_b, n_g, 2), np.float64)
-        m = np.arange(pulses)[None, :]
         for i, beam in enumerate(chunk.beams):
             gen = chunk.rng(int(beam))
             az_b = float(beams["azimuth"].values[i])
@@ -249,31 +349,19 @@ class WeatherChannel(Block):
             cell_power = np.stack([omega[0] @ s_h[near], omega[1] @ s_v[near]])
             # Cells ordered by gate, then radial, so that each gate's sum is one segment.
             gg, jj = np.nonzero(echo[near].T)
-            volts = np.zeros((2, n_g, pulses), np.complex64)
+            volts = np.zeros((2, n_g + 2 * pad, pulses), np.complex64)
             if gg.size:
                 rows = near[jj]
-                y = factors.colour(factors.code[rows, gg], gen)
-                doppler = np.exp(
-                    (-4j * np.pi * prt / lam) * (field["VRADH"][rows, gg][:, None] * m)
-                ).astype(np.complex64)
-                x1 = (y[:, 0] + 1j * y[:, 1]) * doppler
-                x2 = (y[:, 2] + 1j * y[:, 3]) * doppler
-                r = rho[rows, gg][:, None].astype(np.float32)
-                # sqrt(1/2): the white sequences have unit variance per real component.
-                a_h = np.sqrt(0.5 * s_h[rows, gg] * omega[0, jj]).astype(np.float32)
-                a_v = (np.sqrt(0.5 * s_v[rows, gg] * omega[1, jj]) * phase_dp[rows, gg]).astype(
-                    np.complex64
-                )
+                h, v = cells.draw(rows, gg, gen)
+                a_h = np.sqrt(s_h[rows, gg] * omega[0, jj]).astype(np.float32)[:, None]
+                a_v = np.sqrt(s_v[rows, gg] * omega[1, jj]).astype(np.float32)[:, None]
                 starts = np.flatnonzero(np.diff(gg, prepend=-1))
-                gates = gg[starts]
-                volts[0, gates] = np.add.reduceat(a_h[:, None] * x1, starts, axis=0)
-                volts[1, gates] = np.add.reduceat(
-                    a_v[:, None] * (r * x1 + np.sqrt(1 - r**2) * x2), starts, axis=0
-                )
+                volts[0, gg[starts]] = np.add.reduceat(a_h * h, starts, axis=0)
+                volts[1, gg[starts]] = np.add.reduceat(a_v * v, starts, axis=0)
             for k, rk in zip(k_off, r_k, strict=True):
-                lo, hi = max(0, -k), min(n_g, n_g - k)
-                iq[i, lo:hi] += np.moveaxis(np.sqrt(rk) * volts[:, lo + k : hi + k], 0, -1)
-                power[i, lo:hi] += rk * cell_power[:, lo + k : hi + k].T
+                window = slice(pad + k, pad + k + n_g)
+                iq[i] += np.moveaxis(np.sqrt(rk) * volts[:, window], 0, -1)
+                power[i] += rk * cell_power[:, window].T
 
         omega_bs = np.array([pattern.attrs[f"two_way_solid_angle_sr_{p}"] for p in POLARIZATIONS])
         constant_db = 10 * np.log10(k0 * omega_bs * r_k.sum())

@@ -97,6 +97,16 @@ class Block:
         self.p: dict[str, Any] = values
         self.setup()
 
+    @classmethod
+    def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
+        """Problems with a combination of parameters and connections, checked at validation.
+
+        ``params`` holds the valid values given in the graph (defaults not filled in),
+        ``connected`` the names of the connected inputs. Return ``(item, message)`` pairs,
+        e.g. ``("parameter 'snr_db'", "needs the input 'signal_power' connected")``.
+        """
+        return []
+
     def setup(self) -> None:
         """Derive state from the parameters (no I/O); called once when the block is built."""
 

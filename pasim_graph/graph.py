@@ -162,6 +162,8 @@ def validate(spec: GraphSpec, overrides: dict[str, Any] | None = None) -> Graph:
 
     for name, cls in classes.items():
         connected = {e.dst_port for e in edges if e.dst == name}
+        for item, message in cls.check_config(params[name], connected):
+            problems.append(Problem(f, spec.blocks[name].line, name, item, message))
         for port in cls.inputs.values():
             if port.required and port.name not in connected:
                 problems.append(

@@ -131,7 +131,8 @@ class Param:
     Parameters
     ----------
     default : object
-        Value used when the graph file gives none; ``None`` means the parameter is required.
+        Value used when the graph file gives none; ``None`` means the parameter is required,
+        unless ``optional`` is set (then ``None`` means "not given": the block decides).
     type : {"float", "int", "bool", "str", "path"}
         Value type; ``int`` values are accepted for ``float`` parameters.
     units : str
@@ -142,6 +143,8 @@ class Param:
         The allowed values, for enumerations.
     doc : str
         One line shown by ``pasim blocks`` and the editor.
+    optional : bool
+        The parameter may be left unset (``None``).
     """
 
     default: Any = None
@@ -151,15 +154,18 @@ class Param:
     max: float | None = None
     choices: tuple[Any, ...] | None = None
     doc: str = ""
+    optional: bool = False
     name: str = field(default="")
 
     @property
     def required(self) -> bool:
-        return self.default is None
+        return self.default is None and not self.optional
 
     def check(self, value: Any) -> str | None:
         """Return what is wrong with ``value``, or ``None`` when it is acceptable."""
         kinds: tuple[type, ...] = _PY_TYPES[self.type]
+        if value is None and self.optional:
+            return None
         if isinstance(value, bool) and self.type != "bool":
             return f"expected {self.type}, found bool {value!r}"
         if not isinstance(value, kinds):

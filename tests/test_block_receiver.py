@@ -73,8 +73,8 @@ def test_noise_power_is_k_t0_f_b(nf_db: float, bw_hz: float) -> None:
     """Reported and measured noise power per channel = k T0 F B (theory)."""
     out = run(zeros(), noise_figure_db=nf_db, bandwidth_hz=bw_hz)
     expected = ktfb(nf_db, bw_hz)
-    np.testing.assert_allclose(out["noise_power"], [expected, expected], rtol=1e-6)
-    assert out["noise_power"].shape == (2,)
+    np.testing.assert_allclose(out["noise_power"], expected, rtol=1e-6)
+    assert out["noise_power"].shape == (N_BEAMS, N_GATES, 2)
     iq = out["iq"].astype(np.complex128)
     tol = 5 / np.sqrt(N_SAMPLES)
     for pol in range(2):
@@ -159,3 +159,29 @@ def test_noise_does_not_depend_on_chunking() -> None:
     assert not np.allclose(together[0], together[1])
     other_seed = run(zeros(), beams=beams, seed=12)["iq"]
     assert not np.allclose(other_seed, together)
+
+
+def test_fixed_snr_sets_noise_per_gate_from_the_echo_power() -> None:
+    """With snr_db, noise = expected H echo power / SNR at each gate, the same in V (so V's SNR
+    is lower by ZDR), and the thermal value where there is no echo (definition)."""
+    signal = np.zeros((N_BEAMS, N_GATES, 2), np.float32)
+    signal[..., 0] = np.linspace(1e-10, 1e-8, N_GATES)[None, :]
+    signal[..., 1] = signal[..., 0] / 10**0.1
+    signal[:, :5] = 0.0
+    block = Receiver(name="rx", snr_db=20.0)
+    out = block.process(
+        {"iq_in": zeros(), "range_response": range_response(BANDWIDTH_HZ), "signal_power": signal},
+        Chunk(beams=np.arange(N_BEAMS), seed=11, block_name="rx"),
+    )
+    noise = out["noise_power"]
+    np.testing.assert_allclose(noise[:, 5:, 0], signal[:, 5:, 0] / 100, rtol=1e-6)
+    np.testing.assert_allclose(noise[..., 1], noise[..., 0])
+    np.testing.assert_allclose(noise[:, :5], ktfb(2.7), rtol=1e-6)
+    measured = np.mean(np.abs(out["iq"][..., 0]) ** 2, axis=2)
+    assert np.median(measured[:, 5:] / noise[:, 5:, 0]) == pytest.approx(1.0, abs=0.05)
+
+
+def test_fixed_snr_without_signal_power_is_a_validation_error() -> None:
+    problems = Receiver.check_config({"snr_db": 10.0}, {"iq_in", "range_response"})
+    assert problems and "signal_power" in problems[0][1]
+    assert Receiver.check_config({}, {"iq_in", "range_response"}) == []

@@ -135,3 +135,24 @@ connections:
     msgs = [str(p) for p in info.value.problems]
     assert any("name the port" in m and "mf" in m for m in msgs)
     assert not any("hpa" in m and "name the port" in m for m in msgs)
+
+
+def test_truth_file_that_is_not_level2(tmp_path):
+    bogus = tmp_path / "notradar.bin"
+    bogus.write_bytes(b"this is not a NEXRAD volume" * 100)
+    res = run_cli(
+        "run",
+        str(GRAPHS / "generic_radar.yaml"),
+        "--truth",
+        str(bogus),
+        "--out",
+        str(tmp_path / "x.zarr"),
+    )
+    assert res.returncode == 2, res.stderr
+    assert "notradar.bin" in res.stderr and "Traceback" not in res.stderr
+    assert not (tmp_path / "x.zarr").exists()
+
+
+def test_bad_sector_is_named():
+    res = run_cli("validate", str(GRAPHS / "generic_radar.yaml"), "--sector", "west")
+    assert res.returncode == 2 and "--sector" in res.stderr and "AZ0:AZ1" in res.stderr
