@@ -48,11 +48,13 @@ class UniformScene(Block):
     first_gate_m = Param(20_000.0, units="m", min=1.0, max=1e6, doc="range of the first gate")
     radial_width_deg = Param(0.5, units="deg", min=0.01, max=10.0, doc="radial spacing")
     elevation_deg = Param(0.5, units="deg", min=-2.0, max=90.0, doc="elevation of the sweep")
+    masked = Param(False, type="bool", doc="no echo anywhere: every gate masked, as in clear air")
 
     def fields(self, azimuth: np.ndarray, rng_m: np.ndarray) -> dict[str, np.ndarray]:
         shape = (azimuth.size, rng_m.size)
         return {
-            name: np.full(shape, self.p[param], np.float32) for name, param in FIELD_PARAMS.items()
+            name: np.full(shape, np.nan if self.p["masked"] else self.p[param], np.float32)
+            for name, param in FIELD_PARAMS.items()
         }
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:

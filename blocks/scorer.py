@@ -88,13 +88,19 @@ class NexradScorer(Block):
             f"{self.p['min_snr_db']:g} dB; truth = the raw radial nearest each beam"
         )
         dims = ("beam", "range")
+        scored_attrs = {
+            "pasim_role": "scored",
+            "long_name": "gate meets the scoring rule",
+            "scored": rule,
+        }
         out = xr.Dataset(
             {
                 "SNRH": (
                     dims,
                     snr.astype(np.float32),
                     dict(xm.sweep_vars_mapping.get("SNRH", {"units": "dB"})),
-                )
+                ),
+                "scored": (dims, scored.astype(np.int8), scored_attrs),
             }
         )
         nyquist = est["nyquist_velocity"].values[:, None]

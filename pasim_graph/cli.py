@@ -170,13 +170,16 @@ def cmd_score(args: argparse.Namespace) -> int:
     if not scores:
         raise UserError(f"{args.store}: holds no scored fields (the graph had no scorer)")
     if args.json:
-        print(json.dumps(scores, indent=2, default=_json_float))
+        print(json.dumps(_json_safe(scores), indent=2))
     else:
         _print_scores(scores, sys.stdout)
     return 0
 
 
-def _json_float(x: Any) -> Any:
+def _json_safe(x: Any) -> Any:
+    """NaN (no estimate, nothing scored) becomes null: JSON has no NaN."""
+    if isinstance(x, dict):
+        return {k: _json_safe(v) for k, v in x.items()}
     return None if isinstance(x, float) and math.isnan(x) else x
 
 
@@ -196,6 +199,20 @@ def _print_scores(scores: dict[str, dict[str, Any]], stream: Any) -> None:
     first = next(iter(scores.values()))
     if first.get("scored"):
         print(f"scored gates: {first['scored']}", file=stream)
+    n = first.get("scored_gates", first["count"])
+    if n == 0:
+        print(
+            "no gate met the scoring rule: nothing to score (is the sector all masked?)",
+            file=stream,
+        )
+        return
+    for name, s in scores.items():
+        if s.get("unestimated"):
+            print(
+                f"{name}: {s['unestimated']} of {n} scored gates have no estimate (undefined: "
+                "noise-corrected power <= 0)",
+                file=stream,
+            )
 
 
 def parser() -> argparse.ArgumentParser:

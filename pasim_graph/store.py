@@ -70,8 +70,12 @@ def open_volume(path: str | Path) -> xr.DataTree:
 def summarize(sweep: xr.Dataset) -> dict[str, dict[str, Any]]:
     """Bias and standard deviation of every error field a scorer wrote into the sweep.
 
-    Error fields carry ``pasim_role = "error"`` and the requirement they are judged against.
+    Error fields carry ``pasim_role = "error"`` and the requirement they are judged against;
+    a field with ``pasim_role = "scored"`` marks the gates that met the scoring rule, so that
+    scored gates without an estimate (undefined, e.g. noise-corrected power <= 0) are counted.
     """
+    scored_vars = [v for v in sweep.data_vars.values() if v.attrs.get("pasim_role") == "scored"]
+    n_scored = int(np.asarray(scored_vars[0].values).sum()) if scored_vars else None
     out: dict[str, dict[str, Any]] = {}
     for name, var in sweep.data_vars.items():
         if var.attrs.get("pasim_role") != "error":
@@ -91,6 +95,8 @@ def summarize(sweep: xr.Dataset) -> dict[str, dict[str, Any]]:
             "requirement_bias": req_b,
             "requirement_std": req_s,
             "pass": bool(n > 1 and abs(bias) <= req_b and std <= req_s),
+            "scored_gates": n_scored if n_scored is not None else n,
+            "unestimated": (n_scored - n) if n_scored is not None else 0,
             "scored": var.attrs.get("scored", ""),
         }
     return out

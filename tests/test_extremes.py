@@ -1,0 +1,109 @@
+"""Numerical extremes, each through `pasim run` on the uniform scene (docs/extremes.md).
+
+No crash and no silent NaN: every scored gate either has an estimate or is counted as
+unestimated, and the outcome of each extreme is checked against what theory says it must be.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from .conftest import GRAPHS, run_cli
+
+UNIFORM = str(GRAPHS / "uniform_ideal.yaml")
+CORE = str(GRAPHS / "core_contamination.yaml")
+SMALL = ["--set", "scan.azimuth_stop_deg=10"]  # 10 beams x 100 gates
+
+
+def scores(tmp_path, graph, *sets):
+    out = tmp_path / f"run{len(list(tmp_path.iterdir()))}.zarr"
+    args = [x for s in sets for x in ("--set", s)]
+    res = run_cli("run", graph, *SMALL, *args, "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    assert "Traceback" not in res.stderr and "Warning" not in res.stderr, res.stderr
+    result = json.loads(run_cli("score", str(out), "--json").stdout)
+    for s in result.values():  # every scored gate is accounted for
+        assert s["count"] + s["unestimated"] == s["scored_gates"]
+    return result
+
+
+@pytest.mark.parametrize("width", [0.0, 0.01])
+def test_zero_and_tiny_spectrum_width(tmp_path, width):
+    """Width 0 makes eq. 13 singular; the 64 pulses are then one sample, and the power
+    estimate is exponential: std of 10 log10 of an exponential variable = 5.57 dB (theory)."""
+    s = scores(tmp_path, UNIFORM, f"scene.spectrum_width_ms={width}")
+    assert s["DBZH"]["unestimated"] == 0
+    assert s["DBZH"]["std"] == pytest.approx(5.57, rel=0.1)
+
+
+def test_rho_exactly_one_and_truth_above_one(tmp_path):
+    """rho_hv = 1 makes V fully determined by H: the estimate sits at 1 up to noise (SNR 20 dB
+    gives a std of a few 1e-3). A truth above 1 (NEXRAD reports up to 1.05) is drawn as 1, so
+    the scores show the truth's excess as a bias, honestly."""
+    one = scores(tmp_path, UNIFORM, "scene.cross_correlation_ratio=1.0")
+    assert abs(one["RHOHV"]["bias"]) < 0.002 and one["RHOHV"]["std"] < 0.005
+    above = scores(tmp_path, UNIFORM, "scene.cross_correlation_ratio=1.05")
+    assert above["RHOHV"]["bias"] == pytest.approx(-0.05, abs=0.003)
+
+
+def test_minus_30_and_80_dbz_side_by_side(tmp_path):
+    """110 dB of dynamic range in one sector: runs; the weak gates next to the core are
+    dominated by the core's leakage (positive bias), the noise-only ones are counted."""
+    s = scores(
+        tmp_path,
+        CORE,
+        "scene.reflectivity_dbz=-30",
+        "scene.core_dbz=80",
+        "scan.azimuth_stop_deg=30",
+    )
+    assert s["DBZH"]["count"] > 1000
+    assert s["DBZH"]["bias"] > 1.0
+
+
+def test_snr_minus_20_db_masks_negative_powers(tmp_path):
+    """At SNR -20 dB the noise-corrected power is negative in about half the gates (theory:
+    P(S_hat <= 0) ~ 0.5 when the signal is far below the noise's fluctuation): they are masked
+    and counted, not NaN in the statistics."""
+    s = scores(tmp_path, UNIFORM, "receiver.snr_db=-20")
+    n = s["DBZH"]["scored_gates"]
+    assert 0.3 * n < s["DBZH"]["unestimated"] < 0.7 * n
+    assert math.isfinite(s["DBZH"]["std"])
+
+
+@pytest.mark.parametrize("pulses", [2, 1024])
+def test_two_and_1024_pulses(tmp_path, pulses):
+    """M = 2 leaves one lag-1 product; M = 1024 needs a 1024 x 1024 factorisation. Both run;
+    the power std falls with M (theory: roughly 1/sqrt(independent samples))."""
+    s = scores(tmp_path, UNIFORM, f"scan.pulses={pulses}")
+    assert s["WRADH"]["count"] > 0
+    if pulses == 1024:
+        assert s["DBZH"]["std"] < 0.5
+    else:
+        assert s["DBZH"]["std"] > 3.0
+
+
+def test_velocity_beyond_nyquist(tmp_path):
+    """40 m/s with a Nyquist velocity of 26.8 m/s (PRT 1 ms, 10.7 cm) aliases to -13.6 m/s;
+    the scorer differences on the circle, so the error is still about zero."""
+    s = scores(tmp_path, UNIFORM, "scene.velocity_ms=40")
+    assert abs(s["VRADH"]["bias"]) < 0.1
+
+
+@pytest.mark.parametrize("phidp", [359.5, -10.0, 370.0])
+def test_phidp_across_360(tmp_path, phidp):
+    """Estimates near 0/360 wrap; errors are differenced on the circle, so no 360-deg jumps."""
+    s = scores(tmp_path, UNIFORM, f"scene.differential_phase_deg={phidp}")
+    assert abs(s["PHIDP"]["bias"]) < 0.5 and s["PHIDP"]["std"] < 5.0
+
+
+def test_all_masked_sector(tmp_path):
+    """No echo anywhere: the run completes, scores nothing and says so."""
+    out = tmp_path / "run.zarr"
+    res = run_cli("run", UNIFORM, *SMALL, "--set", "scene.masked=true", "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    assert "no gate met the scoring rule" in res.stderr
+    s = json.loads(run_cli("score", str(out), "--json").stdout)
+    assert all(v["count"] == 0 and v["bias"] is None for v in s.values())
