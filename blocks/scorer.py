@@ -98,7 +98,11 @@ class NexradScorer(Block):
                 "SNRH": (
                     dims,
                     snr.astype(np.float32),
-                    dict(xm.sweep_vars_mapping.get("SNRH", {"units": "dB"})),
+                    {
+                        **xm.sweep_vars_mapping.get("SNRH", {}),
+                        "units": "dB",
+                        "long_name": "expected signal-to-noise ratio H (noise-free echo power)",
+                    },
                 ),
                 "scored": (dims, scored.astype(np.int8), scored_attrs),
             }
@@ -127,6 +131,7 @@ class NexradScorer(Block):
                 {
                     "pasim_role": "error",
                     "moment": name,
+                    "truth_variable": f"truth_{name}",
                     "units": units,
                     "requirement_bias": req_b,
                     "requirement_std": req_s,

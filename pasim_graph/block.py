@@ -91,9 +91,21 @@ class Block:
         self.name = name
         values = {k: p.default for k, p in self.params.items()}
         values.update(params)
-        unknown = set(params) - set(self.params)
-        if unknown:
-            raise TypeError(f"{type(self).__name__}: unknown parameters {sorted(unknown)}")
+        problems = [f"unknown parameter {k!r}" for k in sorted(set(params) - set(self.params))]
+        for key, value in params.items():
+            decl = self.params.get(key)
+            if decl is not None and decl.type == "float" and type(value) is int:
+                values[key] = float(value)
+            err = decl.check(values[key]) if decl is not None else None
+            if err:
+                problems.append(f"parameter {key!r}: {err}")
+        problems += [
+            f"parameter {k!r}: required"
+            for k, d in self.params.items()
+            if d.required and values[k] is None
+        ]
+        if problems:
+            raise ValueError(f"{type(self).__name__} {name!r}: " + "; ".join(problems))
         self.p: dict[str, Any] = values
         self.setup()
 

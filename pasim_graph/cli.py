@@ -119,7 +119,7 @@ def cmd_blocks(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .executor import LocalExecutor, RunOptions
+    from .executor import BlockError, LocalExecutor, RunOptions
     from .store import StoreExistsError, open_volume, summarize, write_volume
 
     graph = _graph(args)
@@ -128,14 +128,16 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise UserError(f"{out} exists; pass --overwrite to replace it")
     options = RunOptions(seed=args.seed, chunk_beams=args.chunk, save_iq=args.save_iq)
     t0 = time.perf_counter()
-    executor = LocalExecutor(graph, options)
     try:
+        executor = LocalExecutor(graph, options)
         executor.load()
-    except (OSError, ValueError) as exc:
-        raise UserError(f"{args.graph}: while reading inputs: {exc}") from None
-    n = executor.plan.beam_count
-    print(f"running {args.graph}: {n} beams, seed {args.seed}", file=sys.stderr)
-    sweep = executor.run()
+        n = executor.plan.beam_count
+        print(f"running {args.graph}: {n} beams, seed {args.seed}", file=sys.stderr)
+        sweep = executor.run()
+    except BlockError as exc:
+        if args.debug:
+            raise
+        raise UserError(f"{args.graph}: {exc} (rerun with --debug for the traceback)") from None
     attrs = {
         "title": "PASIM-graph simulated radar volume",
         "Conventions": "Cf/Radial",
@@ -244,6 +246,7 @@ def parser() -> argparse.ArgumentParser:
     run.add_argument("--save-iq", action="store_true", help="also store the H and V I/Q cubes")
     run.add_argument("--out", required=True, help="output store (.zarr)")
     run.add_argument("--overwrite", action="store_true", help="replace an existing store")
+    run.add_argument("--debug", action="store_true", help="show tracebacks of block failures")
     run.set_defaults(func=cmd_run)
 
     val = sub.add_parser("validate", help="check a graph without running it")

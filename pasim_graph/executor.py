@@ -21,6 +21,23 @@ from .graph import Graph
 from .ports import BEAM_DIM
 
 
+class BlockError(RuntimeError):
+    """A block failed while loading or processing; names the block and the beams."""
+
+    def __init__(self, block: str, type_name: str, beams: np.ndarray | None, error: Exception):
+        self.block, self.type_name, self.error = block, type_name, error
+        where = "while loading" if beams is None else _beams_text(beams)
+        super().__init__(
+            f"block '{block}' ({type_name}) failed {where}: {type(error).__name__}: {error}"
+        )
+
+
+def _beams_text(beams: np.ndarray) -> str:
+    if beams.size == 0:
+        return "(once-per-run step)"
+    return f"on beams {int(beams[0])}-{int(beams[-1])}"
+
+
 @dataclass
 class RunOptions:
     """How to run a graph; none of this is part of the graph itself."""
@@ -63,7 +80,12 @@ def plan(graph: Graph, options: RunOptions) -> Plan:
     needed.add(source)
     if source not in order:
         order.insert(0, source)
-    blocks = {n: graph.classes[n](name=n, **graph.params[n]) for n in order}
+    blocks = {}
+    for n in order:
+        try:
+            blocks[n] = graph.classes[n](name=n, **graph.params[n])
+        except Exception as exc:
+            raise BlockError(n, graph.classes[n].type_name, None, exc) from exc
     static = [n for n in order if not graph.classes[n].runs_per_chunk()]
     per_chunk = [n for n in order if graph.classes[n].runs_per_chunk()]
     return Plan(graph, blocks, static, per_chunk, sinks, blocks[source].beam_count())
@@ -85,7 +107,10 @@ class LocalExecutor:
     def load(self) -> None:
         """Do every block's I/O once (reading the truth file, for example)."""
         for name, block in self.plan.blocks.items():
-            self.plan.resources[name] = block.load()
+            try:
+                self.plan.resources[name] = block.load()
+            except Exception as exc:
+                raise BlockError(name, type(block).type_name, None, exc) from exc
 
     def _run_block(self, name: str, values: dict[tuple[str, str], Any], beams: np.ndarray) -> None:
         p = self.plan
@@ -98,7 +123,10 @@ class LocalExecutor:
             resource=p.resources.get(name),
             options={"save_iq": self.options.save_iq},
         )
-        out = block.process(inputs, chunk)
+        try:
+            out = block.process(inputs, chunk)
+        except Exception as exc:
+            raise BlockError(name, type(block).type_name, beams, exc) from exc
         for port in type(block).outputs:
             if port in out:
                 values[(name, port)] = out[port]

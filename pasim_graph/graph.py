@@ -7,6 +7,7 @@ before any computation, collecting every problem (Hamilton-style) into one
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -122,6 +123,9 @@ def parse_overrides(items: list[str]) -> tuple[dict[str, Any], list[str]]:
 
 def validate(spec: GraphSpec, overrides: dict[str, Any] | None = None) -> Graph:
     """Check a parsed graph completely; return the :class:`Graph` or raise :class:`GraphError`."""
+    # Overrides go into a copy: the caller's spec stays as read; the graph keeps the copy,
+    # so the text stored with a run says what actually ran.
+    spec = copy.deepcopy(spec)
     problems = list(spec.problems)
     f = spec.file
     for key, value in (overrides or {}).items():
@@ -185,7 +189,7 @@ def validate(spec: GraphSpec, overrides: dict[str, Any] | None = None) -> Graph:
         )
 
     sources = sorted(n for n, c in classes.items() if c.beam_source)
-    if classes and len(sources) != 1 and not problems:
+    if classes and len(classes) == len(spec.blocks) and len(sources) != 1:
         problems.append(
             Problem(
                 f,

@@ -81,8 +81,17 @@ def summarize(sweep: xr.Dataset) -> dict[str, dict[str, Any]]:
         if var.attrs.get("pasim_role") != "error":
             continue
         values = np.asarray(var.values, dtype=np.float64)
-        values = values[np.isfinite(values)]
-        n = int(values.size)
+        finite = np.isfinite(values)
+        n = int(finite.sum())
+        # Scored gates whose truth has this moment but whose estimate is undefined.
+        unestimated = 0
+        truth_name = var.attrs.get("truth_variable")
+        if scored_vars and truth_name in sweep:
+            has_truth = np.isfinite(np.asarray(sweep[truth_name].values))
+            unestimated = int(
+                (np.asarray(scored_vars[0].values).astype(bool) & has_truth & ~finite).sum()
+            )
+        values = values[finite]
         bias = float(values.mean()) if n else float("nan")
         std = float(values.std(ddof=1)) if n > 1 else float("nan")
         req_b = float(var.attrs["requirement_bias"])
@@ -96,7 +105,7 @@ def summarize(sweep: xr.Dataset) -> dict[str, dict[str, Any]]:
             "requirement_std": req_s,
             "pass": bool(n > 1 and abs(bias) <= req_b and std <= req_s),
             "scored_gates": n_scored if n_scored is not None else n,
-            "unestimated": (n_scored - n) if n_scored is not None else 0,
+            "unestimated": unestimated,
             "scored": var.attrs.get("scored", ""),
         }
     return out

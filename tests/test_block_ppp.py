@@ -6,9 +6,10 @@ What each test compares against:
   simulator's weather channel, by Cholesky colouring with numpy of a Gaussian-spectrum
   process (known power, mean velocity, spectrum width) and a V channel with known ZDR, rho_hv
   and phi_DP, plus white noise of known power. The truth is what went in. The expected mean
-  and standard deviation of every estimate are computed here from theory: the second-order
+  and standard deviation of every estimate come from ``pasim_blocks.theory``: the second-order
   delta method on the exact second moments (Isserlis' theorem) of the lag-0, lag-1 and H-V
-  sample correlations. Its first-order variance is the perturbation result of Doviak & Zrnic
+  sample correlations (itself tested against brute-force traces and a Monte Carlo in
+  ``test_theory.py``). Its first-order variance is the perturbation result of Doviak & Zrnic
   (and of Melnikov & Zrnic for the polarimetric moments); its second-order term is the
   finite-dwell bias (e.g. about -0.01 m/s of spectrum width at M = 64), so the comparison
   with truth does not need a hand-tuned allowance;
@@ -29,13 +30,13 @@ heavier-tailed power estimate), and the delta method neglects O(1/M) terms of a 
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
 
 import numpy as np
 import pytest
 import xarray as xr
 from pasim_blocks.ppp import PulsePairProcessor, pulse_pair
 from pasim_blocks.scan import PPISector
+from pasim_blocks.theory import pulse_pair_statistics
 
 from pasim_graph import Chunk
 
@@ -44,7 +45,6 @@ WAVELENGTH_M = C / 2.8e9  # paper Table 4: 2800 MHz
 PRT_S = 1 / 300  # paper Table 4: PRF 300 Hz
 M = 64  # pulses per dwell
 N_GATES = 4000
-K_WIDTH = WAVELENGTH_M / (2 * np.sqrt(2) * np.pi * PRT_S)
 K_VEL = WAVELENGTH_M / (4 * np.pi * PRT_S)
 NYQUIST = WAVELENGTH_M / (4 * PRT_S)
 
@@ -58,11 +58,10 @@ def normalised_covariance(velocity: float, width: float) -> np.ndarray:
     return rho * np.exp(-4j * np.pi * velocity * lag * PRT_S / WAVELENGTH_M)
 
 
-def simulate(truth: dict, n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Draw H and V I/Q (n gates x M pulses) and return them with their joint covariance."""
+def simulate(truth: dict, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Draw H and V I/Q (n gates x M pulses)."""
     rng = np.random.default_rng(seed)
-    cn = normalised_covariance(truth["v"], truth["w"])
-    chol = np.linalg.cholesky(cn)
+    chol = np.linalg.cholesky(normalised_covariance(truth["v"], truth["w"]))
 
     def white(shape: tuple[int, ...]) -> np.ndarray:
         return (rng.standard_normal(shape) + 1j * rng.standard_normal(shape)) / np.sqrt(2)
@@ -75,71 +74,25 @@ def simulate(truth: dict, n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np
     h = np.sqrt(s_h) * x1 + np.sqrt(truth["N_H"]) * white((n, M))
     v = np.sqrt(s_v) * (rho * x1 + np.sqrt(1 - rho**2) * x2) * np.exp(1j * phi)
     v = v + np.sqrt(truth["N_V"]) * white((n, M))
-    sigma = np.zeros((2 * M, 2 * M), complex)
-    sigma[:M, :M] = s_h * cn + truth["N_H"] * np.eye(M)
-    sigma[M:, M:] = s_v * cn + truth["N_V"] * np.eye(M)
-    cross = np.sqrt(s_h * s_v) * rho * np.exp(-1j * phi) * cn  # E[h_m v_n^*]
-    sigma[:M, M:] = cross
-    sigma[M:, :M] = cross.conj().T
-    return h, v, sigma
+    return h, v
 
 
-def sample_moment_statistics(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Mean and covariance of (P_H, P_V, Re R_hv, Im R_hv, Re R1, Im R1), the sample lag-0
-    powers, H-V lag-0 correlation and H lag-1 correlation of one dwell.
-
-    Each is a Hermitian quadratic form z^H A z of z = (h, v); for circular Gaussian z with
-    covariance Sigma, E = tr(A Sigma) and Cov(A, B) = tr(A Sigma B Sigma) (Isserlis).
-    """
-
-    def form(pairs: list[tuple[int, int]], scale: float) -> np.ndarray:
-        a = np.zeros((2 * M, 2 * M), complex)
-        for i, j in pairs:
-            a[i, j] = scale
-        return a
-
-    p_h = form([(m, m) for m in range(M)], 1 / M)
-    p_v = form([(M + m, M + m) for m in range(M)], 1 / M)
-    r_hv = form([(m, M + m) for m in range(M)], 1 / M)  # mean of h_m^* v_m
-    r_1 = form([(m, m + 1) for m in range(M - 1)], 1 / (M - 1))  # mean of h_m^* h_{m+1}
-    forms = [p_h, p_v]
-    for a in (r_hv, r_1):
-        forms += [(a + a.conj().T) / 2, (a - a.conj().T) / 2j]
-    a_sigma = [a @ sigma for a in forms]
-    mean = np.array([np.trace(x).real for x in a_sigma])
-    cov = np.array([[np.sum(x * y.T).real for y in a_sigma] for x in a_sigma])  # tr(x y)
-    return mean, cov
-
-
-def delta_method(g: Callable[[np.ndarray], float], mean: np.ndarray, cov: np.ndarray):
-    """Second-order mean and first-order standard deviation of g(sample moments)."""
-    d = mean.size
-    step = 1e-4 * np.maximum(np.abs(mean), 1e-3)
-    grad, hess = np.zeros(d), np.zeros((d, d))
-    eye = np.diag(step)
-    for i in range(d):
-        grad[i] = (g(mean + eye[i]) - g(mean - eye[i])) / (2 * step[i])
-        for j in range(d):
-            hess[i, j] = (
-                g(mean + eye[i] + eye[j])
-                - g(mean + eye[i] - eye[j])
-                - g(mean - eye[i] + eye[j])
-                + g(mean - eye[i] - eye[j])
-            ) / (4 * step[i] * step[j])
-    return g(mean) + 0.5 * np.sum(hess * cov), float(np.sqrt(grad @ cov @ grad))
-
-
-def estimators(n_h: float, n_v: float) -> dict[str, Callable[[np.ndarray], float]]:
-    """The moments as functions of the sample moments, written from their textbook forms."""
-    return {
-        "S_H": lambda t: t[0] - n_h,
-        "S_V": lambda t: t[1] - n_v,
-        "ZDR": lambda t: 10 * np.log10((t[0] - n_h) / (t[1] - n_v)),
-        "RHOHV": lambda t: np.hypot(t[2], t[3]) / np.sqrt((t[0] - n_h) * (t[1] - n_v)),
-        "PHIDP": lambda t: np.rad2deg(np.arctan2(t[3], t[2])) % 360,
-        "VRADH": lambda t: -K_VEL * np.arctan2(t[5], t[4]),
-        "WRADH": lambda t: K_WIDTH * np.sqrt(np.log((t[0] - n_h) / np.hypot(t[4], t[5]))),
-    }
+def theory_statistics(truth: dict) -> dict[str, tuple[float, float]]:
+    """Expected value (second order) and std (first order) of every estimate for `truth`."""
+    stats = pulse_pair_statistics(
+        M,
+        PRT_S,
+        WAVELENGTH_M,
+        truth["w"],
+        truth["v"],
+        truth["S_H"],
+        truth["S_H"] / 10 ** (truth["ZDR"] / 10),
+        truth["N_H"],
+        truth["N_V"],
+        truth["RHOHV"],
+        truth["PHIDP"],
+    )
+    return {k: (float(mean), float(sd)) for k, (mean, sd) in stats.items()}
 
 
 CASES = {
@@ -161,9 +114,9 @@ CASES = {
 def test_moments_agree_with_truth_and_theory(case: str) -> None:
     """Mean and standard deviation of every moment over 4000 gates vs the truth and theory."""
     truth = CASES[case]
-    h, v, sigma = simulate(truth, N_GATES, seed=20240 + len(case))
+    h, v = simulate(truth, N_GATES, seed=20240 + len(case))
     est = pulse_pair(h, v, truth["N_H"], truth["N_V"], PRT_S, WAVELENGTH_M)
-    mean, cov = sample_moment_statistics(sigma)
+    theory = theory_statistics(truth)
     expected_truth = {
         "S_H": truth["S_H"],
         "S_V": truth["S_H"] / 10 ** (truth["ZDR"] / 10),
@@ -173,12 +126,10 @@ def test_moments_agree_with_truth_and_theory(case: str) -> None:
         "VRADH": truth["v"],
         "WRADH": truth["w"],
     }
-    for name, g in estimators(truth["N_H"], truth["N_V"]).items():
-        # The theory's zeroth order is the truth: the sample moments' means are S + N, R.
-        assert g(mean) == pytest.approx(expected_truth[name], rel=1e-9, abs=1e-9), name
+    for name in expected_truth:
         values = np.asarray(est[name], dtype=np.float64)
         assert np.all(np.isfinite(values)), f"{name}: unexpected NaN"
-        predicted_mean, sd = delta_method(g, mean, cov)
+        predicted_mean, sd = theory[name]
         se = sd / np.sqrt(values.size)
         assert abs(values.mean() - predicted_mean) <= 5 * se, (
             f"{name}: mean {values.mean():.5g}, truth {expected_truth[name]:.5g}, "
@@ -263,13 +214,12 @@ def test_phidp_is_in_0_360() -> None:
     assert est["PHIDP"][0] == pytest.approx(350.0, abs=1e-9)
 
     truth = {**CASES["snr8"], "PHIDP": 1.0}
-    h, v, sigma = simulate(truth, N_GATES, seed=77)
+    h, v = simulate(truth, N_GATES, seed=77)
     phidp = pulse_pair(h, v, truth["N_H"], truth["N_V"], PRT_S, WAVELENGTH_M)["PHIDP"]
     assert np.all((phidp >= 0) & (phidp < 360))
     assert np.any(phidp > 350) and np.any(phidp < 10)  # the estimates do straddle 0
     circ_mean = np.rad2deg(np.angle(np.mean(np.exp(1j * np.deg2rad(phidp)))))
-    mean, cov = sample_moment_statistics(sigma)
-    _, sd = delta_method(lambda t: np.rad2deg(np.arctan2(t[3], t[2])), mean, cov)
+    _, sd = theory_statistics(truth)["PHIDP"]
     assert circ_mean == pytest.approx(1.0, abs=5 * sd / np.sqrt(N_GATES))
 
 
