@@ -20,8 +20,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parents[1]
 GRAPH = ROOT / "graphs" / "uniform_ideal.yaml"
 MOMENTS = ("DBZH", "VRADH", "WRADH", "ZDR", "RHOHV", "PHIDP")
@@ -32,6 +30,7 @@ FIXED = {
     "zdr_db": 1.0,
     "phidp_deg": 30.0,
 }
+REFERENCE_DWELLS = 20_000
 GRID = list(itertools.product((32, 128), (2.0, 4.0), (10.0, 30.0), (0.9, 0.98)))
 
 
@@ -73,35 +72,12 @@ def run_point(pulses, width, snr, rho, method, seed=0):
     return score, seconds
 
 
-def compare(score, theory):
-    """Per moment: std ratio, bias difference and whether both are within tolerance.
-
-    std: within 15 % of theory. bias: within 15 % of theory's or 3 standard errors of the
-    sample mean, whichever is larger; the standard error uses half the scored gates as the
-    number of independent ones (neighbouring gates share truth cells through the range
-    weighting).
-    """
-    rows = {}
-    for name in MOMENTS:
-        s = score[name]
-        bias_t, std_t = (float(x) for x in theory[name])
-        n_eff = max(1, s["count"] / 2)
-        tol_bias = max(0.15 * abs(bias_t), 3 * s["std"] / np.sqrt(n_eff))
-        rows[name] = {
-            "std": s["std"],
-            "std_theory": std_t,
-            "std_ratio": s["std"] / std_t,
-            "bias": s["bias"],
-            "bias_theory": bias_t,
-            "bias_tolerance": tol_bias,
-            "count": s["count"],
-            "ok": bool(abs(s["std"] / std_t - 1) <= 0.15 and abs(s["bias"] - bias_t) <= tol_bias),
-        }
-    return rows
-
-
 def main() -> None:
-    from pasim_blocks.theory import estimator_statistics
+    from pasim_blocks.theory import (
+        compare_with_reference,
+        estimator_statistics,
+        monte_carlo_statistics,
+    )
 
     ap = argparse.ArgumentParser()
     ap.add_argument("--methods", nargs="+", default=["covariance", "monte_carlo"])
@@ -110,7 +86,7 @@ def main() -> None:
     results = []
     for method in args.methods:
         for pulses, width, snr, rho in GRID:
-            theory = estimator_statistics(
+            point = (
                 pulses,
                 FIXED["prt_s"],
                 FIXED["wavelength_m"],
@@ -121,8 +97,10 @@ def main() -> None:
                 rho,
                 FIXED["phidp_deg"],
             )
+            theory = estimator_statistics(*point)
+            reference = monte_carlo_statistics(*point, gates=REFERENCE_DWELLS, seed=1)
             score, seconds = run_point(pulses, width, snr, rho, method)
-            rows = compare(score, theory)
+            rows = compare_with_reference(score, reference, theory, REFERENCE_DWELLS)
             gates = score["DBZH"]["scored_gates"]
             results.append(
                 {
@@ -150,7 +128,7 @@ def main() -> None:
             )
     Path(args.out).write_text(json.dumps(results, indent=1))
     for method in args.methods:
-        print(f"\n### {method}: std simulated / theory (bias simulated, theory)\n")
+        print(f"\n### {method}: std simulated / reference [theory] (bias simulated, reference)\n")
         print("| M | width | SNR | rho | " + " | ".join(MOMENTS) + " | s |")
         print("|---" * (len(MOMENTS) + 5) + "|")
         for r in (r for r in results if r["method"] == method):

@@ -151,7 +151,9 @@ class PlanarPatchArray(Block):
     n_y = Param(80, type="int", min=1, max=4096, doc="elements up (elevation)")
     spacing_x_m = Param(0.0524, units="m", min=1e-3, max=10.0, doc="element spacing across")
     spacing_y_m = Param(0.0524, units="m", min=1e-3, max=10.0, doc="element spacing up")
-    patch_m = Param(0.035, units="m", min=1e-3, max=1.0, doc="side of the square patch")
+    patch_m = Param(
+        0.0524, units="m", min=1e-3, max=1.0, doc="side of the square patch (paper Table 1)"
+    )
     taylor_sll_db = Param(
         -30.0, units="dB", min=-80.0, max=-13.0, doc="Taylor taper sidelobe level (both axes)"
     )

@@ -92,6 +92,15 @@ class PPISector(Block):
                     {"units": "seconds", "long_name": "pulse repetition time"},
                 ),
                 "pulses": ((), int(self.p["pulses"]), {"long_name": "pulses per dwell"}),
+                # Volume metadata FM-301 asks for at the root (the store moves it there).
+                "time_coverage_start": ((), _iso(start)),
+                "time_coverage_end": (
+                    (),
+                    _iso(start + np.timedelta64(int(self.n_beams * dwell * 1e9), "ns")),
+                ),
+                "volume_number": ((), 0),
+                "platform_type": ((), "fixed"),
+                "instrument_type": ((), "radar"),
             },
             coords={
                 "azimuth": ("beam", az[beams].astype(np.float64), xm.get_azimuth_attrs()),
@@ -119,3 +128,7 @@ def _snap(az: np.ndarray, radials: np.ndarray) -> np.ndarray:
     """
     shift = (_nearest(az[:1], radials)[0] - az[0] + 180.0) % 360.0 - 180.0
     return _nearest((az + shift) % 360.0, radials)
+
+
+def _iso(t: np.datetime64) -> str:
+    return str(np.datetime_as_string(t, unit="s")) + "Z"

@@ -63,6 +63,7 @@ Units: DBZH and ZDR in dB, VRADH and WRADH in m/s, RHOHV dimensionless, PHIDP in
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -751,3 +752,45 @@ def monte_carlo_statistics(
             err = (err + 180.0) % 360.0 - 180.0
         out[name] = (float(np.nanmean(err)), float(np.nanstd(err, ddof=1)))
     return out
+
+
+def compare_with_reference(
+    score: dict[str, dict[str, Any]],
+    reference: dict[str, tuple[float, float]],
+    theory: dict[str, tuple[Any, Any]] | None = None,
+    reference_dwells: int = 20_000,
+    std_tolerance: float = 0.15,
+) -> dict[str, dict[str, Any]]:
+    """Judge a run's scores (``pasim score --json``) against a reference (bias, std) per moment.
+
+    std: within ``std_tolerance`` (15 %) of the reference. bias: within 15 % of the reference's
+    or 4 standard errors of the difference of the two sample means, whichever is larger (4,
+    not 3: a validation grid makes about 200 comparisons, and at 3 one false alarm would be
+    expected). The run's standard error takes half its scored gates as independent
+    (neighbouring gates share truth cells through the range weighting).
+    """
+    rows = {}
+    for name, s in score.items():
+        if name not in reference:
+            continue
+        bias_r, std_r = (float(x) for x in reference[name])
+        n_eff = max(1.0, s["count"] / 2)
+        se = float(np.hypot(s["std"] / np.sqrt(n_eff), std_r / np.sqrt(reference_dwells)))
+        tol_bias = max(0.15 * abs(bias_r), 4 * se)
+        row = {
+            "std": s["std"],
+            "std_reference": std_r,
+            "std_ratio": s["std"] / std_r,
+            "bias": s["bias"],
+            "bias_reference": bias_r,
+            "bias_tolerance": tol_bias,
+            "count": s["count"],
+            "ok": bool(
+                abs(s["std"] / std_r - 1) <= std_tolerance and abs(s["bias"] - bias_r) <= tol_bias
+            ),
+        }
+        if theory is not None and name in theory:
+            row["bias_theory"] = float(theory[name][0])
+            row["std_theory"] = float(theory[name][1])
+        rows[name] = row
+    return rows

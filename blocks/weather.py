@@ -255,7 +255,10 @@ class WeatherChannel(Block):
     signal_power : signal_power
         Expected echo power per gate (W), noise-free.
     calibration : calibration
-        Radar constant per beam and polarisation (boresight), and the gate ranges.
+        Radar constant per beam and polarisation, and the gate ranges. It is the boresight
+        (broadside) constant for every beam: scan loss and the H/V mismatch of a steered array
+        are deliberately left uncalibrated, as in the paper (its planar array shows a ZDR bias
+        growing off broadside).
     """
 
     truth = Input(TRUTH, doc="truth sweep")

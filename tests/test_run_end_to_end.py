@@ -33,6 +33,8 @@ def test_store_is_a_cfradial2_volume(small_store):
     assert root.attrs["seed"] == 7
     assert root.attrs["graph"].startswith("format: pasim-graph/1")
     assert root.attrs["pasim_graph_version"]
+    assert str(root["time_coverage_start"].values).startswith("2016-06-01T15:00")
+    assert str(root["instrument_type"].values) == "radar"
     sweep = tree["sweep_0"].to_dataset()
     assert sweep.sizes["azimuth"] == 4
     assert sweep["azimuth"].attrs["units"] == "degrees"

@@ -156,3 +156,21 @@ def test_truth_file_that_is_not_level2(tmp_path):
 def test_bad_sector_is_named():
     res = run_cli("validate", str(GRAPHS / "generic_radar.yaml"), "--sector", "west")
     assert res.returncode == 2 and "--sector" in res.stderr and "AZ0:AZ1" in res.stderr
+
+
+def test_block_failure_names_the_block_and_exits_2(tmp_path):
+    """Beams behind a planar array's face cannot be steered: the message names the block."""
+    res = run_cli(
+        "run",
+        str(GRAPHS / "planar_patch_radar.yaml"),
+        "--sector",
+        "90:92",
+        "--out",
+        str(tmp_path / "x.zarr"),
+    )
+    assert res.returncode == 2
+    assert "block 'antenna' (antenna.planar)" in res.stderr and "not in front of the face" in (
+        res.stderr
+    )
+    assert "Traceback" not in res.stderr
+    assert not (tmp_path / "x.zarr").exists()
