@@ -82,9 +82,36 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--methods", nargs="+", default=["covariance", "monte_carlo"])
     ap.add_argument("--out", default="validation.json")
+    ap.add_argument("--from-json", help="re-judge and print the rows of an earlier run")
     args = ap.parse_args()
-    results = []
-    for method in args.methods:
+    results = json.loads(Path(args.from_json).read_text()) if args.from_json else []
+    for r in results:  # re-judge with the current rule and theory
+        point = (
+            r["pulses"],
+            FIXED["prt_s"],
+            FIXED["wavelength_m"],
+            r["width_ms"],
+            FIXED["velocity_ms"],
+            r["snr_db"],
+            FIXED["zdr_db"],
+            r["rho_hv"],
+            FIXED["phidp_deg"],
+        )
+        score = {
+            n: {"std": m["std"], "bias": m["bias"], "count": m["count"]}
+            for n, m in r["moments"].items()
+        }
+        reference = {
+            n: (
+                m.get("bias_reference", m.get("bias_theory")),
+                m.get("std_reference", m.get("std_theory")),
+            )
+            for n, m in r["moments"].items()
+        }
+        r["moments"] = compare_with_reference(
+            score, reference, estimator_statistics(*point), REFERENCE_DWELLS
+        )
+    for method in [] if args.from_json else args.methods:
         for pulses, width, snr, rho in GRID:
             point = (
                 pulses,
@@ -127,6 +154,7 @@ def main() -> None:
                 flush=True,
             )
     Path(args.out).write_text(json.dumps(results, indent=1))
+    args.methods = sorted({r["method"] for r in results}, key=["covariance", "monte_carlo"].index)
     for method in args.methods:
         print(f"\n### {method}: std simulated / reference [theory] (bias simulated, reference)\n")
         print("| M | width | SNR | rho | " + " | ".join(MOMENTS) + " | s |")

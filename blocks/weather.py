@@ -280,7 +280,7 @@ class WeatherChannel(Block):
         doc="time series: covariance (paper eq. 13-18) or monte_carlo (eq. 5-12, drops)",
     )
     drops_per_cell = Param(
-        64, type="int", min=1, max=100_000, doc="drops per truth cell (monte_carlo only)"
+        256, type="int", min=1, max=100_000, doc="drops per truth cell (monte_carlo only)"
     )
     support_db = Param(
         -100.0,

@@ -119,25 +119,19 @@ def cmd_blocks(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .executor import BlockError, LocalExecutor, RunOptions
-    from .store import StoreExistsError, open_volume, summarize, write_volume
+    from .dask_executor import DaskExecutor, ResumeError
+    from .executor import BlockError, RunOptions
+    from .store import StoreExistsError, open_volume, summarize
 
     graph = _graph(args)
     out = Path(args.out)
-    if out.exists() and not args.overwrite:
-        raise UserError(f"{out} exists; pass --overwrite to replace it")
+    if out.exists() and not (args.overwrite or args.resume):
+        raise UserError(f"{out} exists; pass --resume to complete it or --overwrite to replace it")
+    if args.chunk < 1:
+        raise UserError(f"--chunk must be at least 1 beam, found {args.chunk}")
+    if args.workers is not None and args.workers < 1:
+        raise UserError(f"--workers must be at least 1, found {args.workers}")
     options = RunOptions(seed=args.seed, chunk_beams=args.chunk, save_iq=args.save_iq)
-    t0 = time.perf_counter()
-    try:
-        executor = LocalExecutor(graph, options)
-        executor.load()
-        n = executor.plan.beam_count
-        print(f"running {args.graph}: {n} beams, seed {args.seed}", file=sys.stderr)
-        sweep = executor.run()
-    except BlockError as exc:
-        if args.debug:
-            raise
-        raise UserError(f"{args.graph}: {exc} (rerun with --debug for the traceback)") from None
     attrs = {
         "title": "PASIM-graph simulated radar volume",
         "Conventions": "Cf/Radial",
@@ -149,21 +143,49 @@ def cmd_run(args: argparse.Namespace) -> int:
         "simulated": "true",
         "source": "PASIM-graph simulation",
     }
+    t0 = time.perf_counter()
     try:
-        write_volume(out, sweep, attrs, overwrite=args.overwrite)
-    except StoreExistsError as exc:
+        executor = DaskExecutor(
+            graph,
+            options,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            progress=args.progress or sys.stderr.isatty(),
+        )
+        n = executor.local.plan.beam_count
+        print(
+            f"running {args.graph}: {n} beams in chunks of {args.chunk}, seed {args.seed}",
+            file=sys.stderr,
+        )
+        report = executor.run(
+            out,
+            attrs,
+            resume=args.resume,
+            overwrite=args.overwrite,
+            log=lambda s: print(s, file=sys.stderr),
+        )
+    except BlockError as exc:
+        if args.debug:
+            raise
+        raise UserError(f"{args.graph}: {exc} (rerun with --debug for the traceback)") from None
+    except (StoreExistsError, ResumeError) as exc:
         raise UserError(str(exc)) from None
     dt = time.perf_counter() - t0
-    print(f"wrote {out} in {dt:.1f} s", file=sys.stderr)
+    print(
+        f"wrote {out} in {dt:.1f} s ({report.chunks_run} of {report.chunks_total} chunks run now)",
+        file=sys.stderr,
+    )
     _print_scores(summarize(open_volume(out)["sweep_0"].to_dataset()), sys.stderr)
     return 0
 
 
 def cmd_score(args: argparse.Namespace) -> int:
-    from .store import open_volume, summarize
+    from .store import IncompleteStoreError, open_volume, summarize
 
     try:
         tree = open_volume(args.store)
+    except IncompleteStoreError as exc:
+        raise UserError(str(exc)) from None
     except (FileNotFoundError, OSError, ValueError) as exc:
         raise UserError(f"{args.store}: cannot open store: {exc}") from None
     if "sweep_0" not in tree.children:
@@ -246,6 +268,25 @@ def parser() -> argparse.ArgumentParser:
     run.add_argument("--save-iq", action="store_true", help="also store the H and V I/Q cubes")
     run.add_argument("--out", required=True, help="output store (.zarr)")
     run.add_argument("--overwrite", action="store_true", help="replace an existing store")
+    run.add_argument(
+        "--resume",
+        action="store_true",
+        help="complete an interrupted run (same graph, seed, chunk size)",
+    )
+    run.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="run on a dask.distributed LocalCluster of N worker processes",
+    )
+    run.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on an existing dask.distributed cluster (tcp://host:8786)",
+    )
+    run.add_argument(
+        "--progress", action="store_true", help="show a progress bar (shown anyway on a terminal)"
+    )
     run.add_argument("--debug", action="store_true", help="show tracebacks of block failures")
     run.set_defaults(func=cmd_run)
 

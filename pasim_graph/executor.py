@@ -144,6 +144,10 @@ class LocalExecutor:
             self._run_block(name, values, beams)
         return self._products(values, per_beam=True)
 
+    def static_products(self, static: dict[tuple[str, str], Any]) -> list[xr.Dataset]:
+        """Stored products that do not depend on the beams (written once)."""
+        return self._products(static, per_beam=False)
+
     def _products(self, values: dict[tuple[str, str], Any], per_beam: bool) -> list[xr.Dataset]:
         out = []
         for name, ports in self.plan.sinks.items():
@@ -174,5 +178,5 @@ class LocalExecutor:
             )
             for group in zip(*parts, strict=True)
         ]
-        merged += self._products(static, per_beam=False)
+        merged += self.static_products(static)
         return xr.merge(merged, compat="override", join="override", combine_attrs="override")

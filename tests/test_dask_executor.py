@@ -1,0 +1,132 @@
+"""The Dask executor: the same numbers at any chunking and worker count; resumable runs."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from pasim_graph.store import run_state
+
+from .conftest import GRAPHS, ROOT, run_cli
+
+GENERIC = str(GRAPHS / "generic_radar.yaml")
+FAST = ["--set", "scan.pulses=16", "--seed", "5"]
+
+
+def sweep(path):
+    return xr.open_datatree(path, engine="zarr")["sweep_0"].to_dataset()
+
+
+def assert_same_numbers(a, b):
+    floats = [v for v in a.data_vars if a[v].dtype.kind in "fc"]
+    assert len(floats) >= 19  # six moments, six truths, six errors, SNR, ...
+    for name in floats:
+        np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
+    np.testing.assert_array_equal(a["azimuth"].values, b["azimuth"].values)
+
+
+def test_chunk_size_and_workers_do_not_change_the_numbers(tmp_path):
+    """30 deg sector: chunks of 1 beam on one thread vs chunks of 8 on a 2-worker cluster."""
+    one = tmp_path / "one.zarr"
+    res = run_cli(
+        "run",
+        GENERIC,
+        "--sector",
+        "270:300",
+        *FAST,
+        "--chunk",
+        "1",
+        "--out",
+        str(one),
+        env={"DASK_NUM_WORKERS": "1"},
+    )
+    assert res.returncode == 0, res.stderr
+    two = tmp_path / "two.zarr"
+    res = run_cli(
+        "run",
+        GENERIC,
+        "--sector",
+        "270:300",
+        *FAST,
+        "--chunk",
+        "8",
+        "--workers",
+        "2",
+        "--out",
+        str(two),
+    )
+    assert res.returncode == 0, res.stderr
+    a, b = sweep(one), sweep(two)
+    assert a.sizes["azimuth"] == 30
+    assert_same_numbers(a, b)
+    # The store is chunked along azimuth as asked.
+    assert b["DBZH"].encoding["chunks"][0] == 8
+
+
+def test_killed_run_resumes_to_the_same_numbers(tmp_path):
+    """SIGKILL part-way, then --resume: equal to a run never interrupted."""
+    args = ["run", GENERIC, "--sector", "280:300", *FAST, "--chunk", "2"]
+    killed = tmp_path / "killed.zarr"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pasim_graph", *args, "--out", str(killed)],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    deadline = time.monotonic() + 120
+    state = None
+    while time.monotonic() < deadline:
+        state = run_state(killed) if killed.exists() else None
+        if state is not None and 1 <= state[1].sum() < state[1].size - 2:
+            break
+        if proc.poll() is not None:
+            pytest.fail("the run finished before it could be killed")
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    state = run_state(killed)
+    assert state is not None and state[0]["pasim_complete"] == "false"
+    assert 0 < state[1].sum() < state[1].size
+
+    # An incomplete store is never scored as if it were complete, nor silently reused.
+    res = run_cli("score", str(killed))
+    assert res.returncode == 2 and "did not finish" in res.stderr
+    res = run_cli(*args, "--out", str(killed))
+    assert res.returncode == 2 and "--resume" in res.stderr
+
+    res = run_cli(*args, "--out", str(killed), "--resume")
+    assert res.returncode == 0, res.stderr
+    full = tmp_path / "full.zarr"
+    res = run_cli(*args, "--out", str(full))
+    assert res.returncode == 0, res.stderr
+    assert_same_numbers(sweep(killed), sweep(full))
+    assert run_state(killed)[0]["pasim_complete"] == "true"
+
+
+def test_resume_refuses_a_store_from_another_run(tmp_path):
+    out = tmp_path / "a.zarr"
+    res = run_cli("run", GENERIC, "--sector", "280:282", *FAST, "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    res = run_cli(
+        "run",
+        GENERIC,
+        "--sector",
+        "280:282",
+        "--set",
+        "scan.pulses=16",
+        "--seed",
+        "6",
+        "--resume",
+        "--out",
+        str(out),
+    )
+    assert res.returncode == 2 and "another run" in res.stderr
+    res = run_cli("run", GENERIC, "--sector", "280:282", *FAST, "--resume", "--out", str(out))
+    assert res.returncode == 0 and "already complete" in res.stderr
