@@ -165,8 +165,8 @@ def main() -> None:
                 m = r["moments"][name]
                 mark = "" if m["ok"] else " **x**"
                 cells.append(
-                    f"{m['std']:.3g}/{m['std_theory']:.3g} "
-                    f"({m['bias']:+.2g}, {m['bias_theory']:+.2g}){mark}"
+                    f"{m['std']:.3g} / {m['std_reference']:.3g} [{m['std_theory']:.3g}] "
+                    f"({m['bias']:+.2g}, {m['bias_reference']:+.2g}){mark}"
                 )
             print(
                 f"| {r['pulses']} | {r['width_ms']:g} | {r['snr_db']:g} | {r['rho_hv']:g} | "
