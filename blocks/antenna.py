@@ -55,7 +55,58 @@ def pattern_dataset(
     )
 
 
-class PencilBeamAntenna(Block):
+class AxisymmetricAntenna(Block):
+    """Base of antennas whose pattern depends only on the angle off the beam axis.
+
+    Subclasses give ``power_off_axis(theta_deg)``; the pattern on the offset grid is computed
+    once per beam elevation (azimuth offsets shrink into smaller angles as the beam rises, by
+    cos el), H and V are identical and the antenna is steered mechanically, so every beam at
+    one elevation has the same pattern.
+    """
+
+    beams = Input(BEAMS, doc="beam geometry")
+    pattern = Output(PATTERN, doc="one-way H and V power patterns around each beam axis")
+
+    beamwidth_deg = Param(1.0, units="deg", min=0.01, max=30.0, doc="one-way 3-dB beamwidth")
+    gain_db = Param(45.5, units="dB", min=0.0, max=70.0, doc="peak gain")
+    grid_step_deg = Param(0.05, units="deg", min=0.001, max=1.0, doc="pattern grid step")
+
+    def power_off_axis(self, theta_deg: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def setup(self) -> None:
+        self.d_az = offsets(self.p["support_deg"], self.p["grid_step_deg"])
+        self.d_el = self.d_az.copy()
+        self._by_elevation: dict[float, np.ndarray] = {}
+        self.omega = two_way_solid_angle(self._power(0.0), self.d_az, self.d_el, 0.0)
+
+    def _power(self, elevation_deg: float) -> np.ndarray:
+        if elevation_deg not in self._by_elevation:
+            el0 = np.deg2rad(elevation_deg)
+            el = el0 + np.deg2rad(self.d_el)[:, None]
+            d_az = np.deg2rad(self.d_az)[None, :]
+            # Great-circle angle between the axis and each direction of the grid.
+            cos_t = np.sin(el0) * np.sin(el) + np.cos(el0) * np.cos(el) * np.cos(d_az)
+            theta = np.rad2deg(np.arccos(np.clip(cos_t, -1.0, 1.0)))
+            self._by_elevation[elevation_deg] = self.power_off_axis(theta).astype(np.float32)
+        return self._by_elevation[elevation_deg]
+
+    def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
+        elevations = inputs["beams"]["elevation"].values
+        shape = (2, self.d_el.size, self.d_az.size)
+        power = np.stack([np.broadcast_to(self._power(float(e)), shape) for e in elevations])
+        ds = pattern_dataset(
+            power,
+            self.d_az,
+            self.d_el,
+            self.p["gain_db"],
+            {p: self.omega for p in POLARIZATIONS},
+            antenna=self.type_name or type(self).__name__,
+        )
+        return {"pattern": ds}
+
+
+class PencilBeamAntenna(AxisymmetricAntenna):
     """A mechanically steered pencil beam: the same pattern at every azimuth (generic radar).
 
     Circular aperture whose (1 - rho^2)^p taper is solved to give ``first_sidelobe_db``,
@@ -70,11 +121,7 @@ class PencilBeamAntenna(Block):
         One-way power pattern per beam and polarisation.
     """
 
-    beams = Input(BEAMS, doc="beam geometry")
-    pattern = Output(PATTERN, doc="one-way H and V power patterns around each beam axis")
-
     beamwidth_deg = Param(1.0, units="deg", min=0.1, max=30.0, doc="one-way 3-dB beamwidth")
-    gain_db = Param(45.5, units="dB", min=0.0, max=70.0, doc="peak gain")
     first_sidelobe_db = Param(
         -32.0, units="dB", min=-60.0, max=-17.6, doc="first sidelobe level, one-way"
     )
@@ -85,45 +132,42 @@ class PencilBeamAntenna(Block):
         max=45.0,
         doc="half-width of the pattern grid around the beam axis",
     )
-    grid_step_deg = Param(0.05, units="deg", min=0.001, max=1.0, doc="pattern grid step")
 
     def setup(self) -> None:
         from .patterns import PencilBeam
 
         self.beam = PencilBeam.design(self.p["beamwidth_deg"], self.p["first_sidelobe_db"])
-        self.d_az = offsets(self.p["support_deg"], self.p["grid_step_deg"])
-        self.d_el = self.d_az.copy()
-        self._by_elevation: dict[float, np.ndarray] = {}
-        self.omega = two_way_solid_angle(self._power(0.0), self.d_az, self.d_el, 0.0)
+        super().setup()
 
-    def _power(self, elevation_deg: float) -> np.ndarray:
-        from .patterns import pencil_beam_power
+    def power_off_axis(self, theta_deg: np.ndarray) -> np.ndarray:
+        return self.beam.power(theta_deg)
 
-        # Azimuth offsets shrink into smaller angles as the beam rises (by cos el), so the
-        # pattern on the offset grid depends on the beam's elevation; cached per elevation.
-        if elevation_deg not in self._by_elevation:
-            self._by_elevation[elevation_deg] = pencil_beam_power(
-                self.d_az[None, :], self.d_el[:, None], self.beam, el0_deg=elevation_deg
-            ).astype(np.float32)
-        return self._by_elevation[elevation_deg]
 
-    def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        elevations = inputs["beams"]["elevation"].values
-        power = np.stack(
-            [
-                np.broadcast_to(self._power(float(e)), (2, *self.d_el.shape, *self.d_az.shape))
-                for e in elevations
-            ]
-        )
-        ds = pattern_dataset(
-            power,
-            self.d_az,
-            self.d_el,
-            self.p["gain_db"],
-            {p: self.omega for p in POLARIZATIONS},
-            antenna="pencil",
-        )
-        return {"pattern": ds}
+class IdealAntenna(AxisymmetricAntenna):
+    """A pencil beam with no sidelobes: a Gaussian main lobe, for estimator studies.
+
+    One-way power exp(-4 ln 2 theta^2 / beamwidth^2) of the angle theta off the axis, cut to
+    zero beyond ``support_deg``; H and V identical.
+
+    Inputs
+    ------
+    beams : beams
+    Outputs
+    -------
+    pattern : pattern
+    """
+
+    support_deg = Param(
+        2.0,
+        units="deg",
+        min=0.05,
+        max=45.0,
+        doc="half-width of the pattern grid (the beam is zero beyond)",
+    )
+
+    def power_off_axis(self, theta_deg: np.ndarray) -> np.ndarray:
+        power = np.exp(-4 * np.log(2) * (theta_deg / self.p["beamwidth_deg"]) ** 2)
+        return np.where(theta_deg > self.p["support_deg"], 0.0, power)
 
 
 class PlanarPatchArray(Block):
@@ -233,67 +277,5 @@ class PlanarPatchArray(Block):
             self.gain_db,
             self.omega,
             antenna="planar",
-        )
-        return {"pattern": ds}
-
-
-class IdealAntenna(Block):
-    """A pencil beam with no sidelobes: a Gaussian main lobe, for estimator studies.
-
-    One-way power exp(-4 ln 2 theta^2 / beamwidth^2) of the angle theta off the axis, cut to
-    zero beyond ``support_deg``; H and V identical.
-
-    Inputs
-    ------
-    beams : beams
-    Outputs
-    -------
-    pattern : pattern
-    """
-
-    beams = Input(BEAMS, doc="beam geometry")
-    pattern = Output(PATTERN, doc="one-way H and V power patterns around each beam axis")
-
-    beamwidth_deg = Param(1.0, units="deg", min=0.01, max=30.0, doc="one-way 3-dB beamwidth")
-    gain_db = Param(45.5, units="dB", min=0.0, max=70.0, doc="peak gain")
-    support_deg = Param(
-        2.0,
-        units="deg",
-        min=0.05,
-        max=45.0,
-        doc="half-width of the pattern grid (the beam is zero beyond)",
-    )
-    grid_step_deg = Param(0.05, units="deg", min=0.001, max=1.0, doc="pattern grid step")
-
-    def setup(self) -> None:
-        self.d_az = offsets(self.p["support_deg"], self.p["grid_step_deg"])
-        self.d_el = self.d_az.copy()
-        self._by_elevation: dict[float, np.ndarray] = {}
-        self.omega = two_way_solid_angle(self._power(0.0), self.d_az, self.d_el, 0.0)
-
-    def _power(self, elevation_deg: float) -> np.ndarray:
-        if elevation_deg not in self._by_elevation:
-            el0 = np.deg2rad(elevation_deg)
-            el = el0 + np.deg2rad(self.d_el)[:, None]
-            d_az = np.deg2rad(self.d_az)[None, :]
-            # Great-circle angle between the axis and each direction of the grid.
-            cos_t = np.sin(el0) * np.sin(el) + np.cos(el0) * np.cos(el) * np.cos(d_az)
-            theta = np.rad2deg(np.arccos(np.clip(cos_t, -1.0, 1.0)))
-            power = np.exp(-4 * np.log(2) * (theta / self.p["beamwidth_deg"]) ** 2)
-            power[theta > self.p["support_deg"]] = 0.0
-            self._by_elevation[elevation_deg] = power.astype(np.float32)
-        return self._by_elevation[elevation_deg]
-
-    def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        elevations = inputs["beams"]["elevation"].values
-        shape = (2, self.d_el.size, self.d_az.size)
-        power = np.stack([np.broadcast_to(self._power(float(e)), shape) for e in elevations])
-        ds = pattern_dataset(
-            power,
-            self.d_az,
-            self.d_el,
-            self.p["gain_db"],
-            {p: self.omega for p in POLARIZATIONS},
-            antenna="ideal",
         )
         return {"pattern": ds}

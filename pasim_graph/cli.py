@@ -172,7 +172,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise UserError(str(exc)) from None
     dt = time.perf_counter() - t0
     print(
-        f"wrote {out} in {dt:.1f} s ({report.chunks_run} of {report.chunks_total} chunks run now)",
+        f"wrote {out} in {dt:.1f} s (set-up {report.seconds_setup:.1f} s, {report.chunks_run} "
+        f"of {report.chunks_total} chunks in {report.seconds_chunks:.1f} s)",
         file=sys.stderr,
     )
     _print_scores(summarize(open_volume(out)["sweep_0"].to_dataset()), sys.stderr)

@@ -14,10 +14,13 @@ incomplete, and ``resume=True`` runs only the chunks whose flag is not set.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import shutil
+import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -47,6 +50,8 @@ class RunReport:
     chunks_total: int
     chunks_run: int
     beams: int
+    seconds_setup: float = 0.0  # reading inputs, once-per-run blocks, the store's layout
+    seconds_chunks: float = 0.0  # running and writing the chunks
 
 
 def run_key(graph: Graph, options: RunOptions) -> str:
@@ -111,6 +116,7 @@ class DaskExecutor:
         self.options = options or RunOptions()
         self.local = LocalExecutor(graph, self.options)
         self.workers, self.scheduler, self.progress = workers, scheduler, progress
+        self._cluster: Any = None
 
     def run(
         self,
@@ -150,33 +156,45 @@ class DaskExecutor:
                     return RunReport(len(starts), 0, n_beams)
         attrs = {**attrs, "pasim_run_key": key, "chunk_beams": self.options.chunk_beams}
 
-        self.local.load()
-        static = self.local.run_static()
-        todo = [i for i in range(len(starts)) if not done[i]]
-        if state is None:
-            # The first chunk runs here: its output fixes the store's layout.
-            parts = self.local.run_chunk(static, starts[0])
-            first = _merge(parts + self.local.static_products(static))
-            root, sweep = split_volume(first, attrs)
-            create_volume(
-                path,
-                root,
-                sweep,
-                self._all_beam_coords(static, sweep),
-                n_beams,
-                self.options.chunk_beams,
-                len(starts),
-            )
-            write_region(path, sweep, 0, 0)
-            todo = todo[1:]
-            log(f"chunk 1 of {len(starts)} written")
-        # Blocks that run once have done their I/O; workers need only the per-chunk blocks.
-        self.local.plan.resources = {
-            n: r for n, r in self.local.plan.resources.items() if n in self.local.plan.per_chunk
-        }
-        self._compute(todo, starts, static, str(path), attrs)
+        t0 = time.perf_counter()
+        # A cluster takes seconds to start; it starts while the inputs are read.
+        pool = ThreadPoolExecutor(1)
+        client = pool.submit(self._connect) if (self.workers or self.scheduler) else None
+        try:
+            self.local.load()
+            static = self.local.run_static()
+            if state is None:
+                # One beam fixes the store's layout; every chunk then runs in parallel.
+                parts = self.local.run_chunk(static, np.arange(1))
+                first = _merge(parts + self.local.static_products(static))
+                root, sweep = split_volume(first, attrs)
+                create_volume(
+                    path,
+                    root,
+                    sweep,
+                    self._all_beam_coords(static, sweep),
+                    n_beams,
+                    self.options.chunk_beams,
+                    len(starts),
+                )
+            todo = [i for i in range(len(starts)) if not done[i]]
+            # Blocks that run once have done their I/O; workers need only per-chunk blocks.
+            plan = self.local.plan
+            plan.resources = {n: r for n, r in plan.resources.items() if n in plan.per_chunk}
+            t1 = time.perf_counter()
+            if client is not None:
+                self._compute_distributed(client.result(), todo, starts, static, str(path), attrs)
+            else:
+                self._compute_threads(todo, starts, static, str(path), attrs)
+            t2 = time.perf_counter()
+        finally:
+            if client is not None:
+                client.result().close()
+                if self._cluster is not None:
+                    self._cluster.close()
+            pool.shutdown()
         mark_complete(path)
-        return RunReport(len(starts), len(todo) + (1 if state is None else 0), n_beams)
+        return RunReport(len(starts), len(todo), n_beams, t1 - t0, t2 - t1)
 
     def _all_beam_coords(self, static: dict, sweep: xr.Dataset) -> dict[str, Any]:
         """Index coordinates along the beams, for every beam (the template needs them all)."""
@@ -193,7 +211,7 @@ class DaskExecutor:
             if dim in full[name].dims and name in sweep.coords
         }
 
-    def _compute(
+    def _compute_threads(
         self,
         todo: list[int],
         starts: list[np.ndarray],
@@ -201,11 +219,6 @@ class DaskExecutor:
         path: str,
         attrs: dict[str, Any],
     ) -> None:
-        if not todo:
-            return
-        if self.workers or self.scheduler:
-            self._compute_distributed(todo, starts, static, path, attrs)
-            return
         import dask
         from dask.diagnostics import ProgressBar
 
@@ -213,43 +226,40 @@ class DaskExecutor:
             dask.delayed(_run_and_write, pure=False)(self.local, static, starts[i], i, path, attrs)
             for i in todo
         ]
-        if self.progress:
-            with ProgressBar():
-                dask.compute(*tasks, scheduler="threads")
-        else:
+        with ProgressBar() if self.progress else contextlib.nullcontext():
             dask.compute(*tasks, scheduler="threads")
+
+    def _connect(self) -> Any:
+        from distributed import Client, LocalCluster
+
+        if self.scheduler:
+            return Client(self.scheduler)
+        self._cluster = LocalCluster(
+            n_workers=self.workers, threads_per_worker=1, processes=True, dashboard_address=None
+        )
+        return Client(self._cluster)
 
     def _compute_distributed(
         self,
+        client: Any,
         todo: list[int],
         starts: list[np.ndarray],
         static: dict,
         path: str,
         attrs: dict[str, Any],
     ) -> None:
-        from distributed import Client, LocalCluster, progress, wait
+        from distributed import progress, wait
 
-        if self.scheduler:
-            client = Client(self.scheduler)
-            cluster = None
-        else:
-            cluster = LocalCluster(
-                n_workers=self.workers, threads_per_worker=1, processes=True, dashboard_address=None
-            )
-            client = Client(cluster)
-        try:
-            local = client.scatter(self.local, broadcast=True)
-            shared = client.scatter(static, broadcast=True)
-            futures = [
-                client.submit(_run_and_write, local, shared, starts[i], i, path, attrs, pure=False)
-                for i in todo
-            ]
-            if self.progress:
-                progress(futures)
-            wait(futures)
-            for f in futures:
-                f.result()  # re-raise a failed chunk's error here
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+        if not todo:
+            return
+        local = client.scatter(self.local, broadcast=True)
+        shared = client.scatter(static, broadcast=True)
+        futures = [
+            client.submit(_run_and_write, local, shared, starts[i], i, path, attrs, pure=False)
+            for i in todo
+        ]
+        if self.progress:
+            progress(futures)
+        wait(futures)
+        for f in futures:
+            f.result()  # re-raise a failed chunk's error here
