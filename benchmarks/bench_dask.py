@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import subprocess
 import sys
 import tempfile
@@ -58,14 +59,19 @@ def run(sector_deg: float, chunk: int, workers: int | None) -> dict:
         if workers:
             cmd += ["--workers", str(workers)]
         t0 = time.perf_counter()
-        proc = psutil.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        peak = 0
-        while proc.poll() is None:
-            peak = max(peak, tree_rss(proc))
-            time.sleep(0.05)
+        log = Path(tmp) / "stderr.txt"
+        with log.open("w") as err:
+            proc = psutil.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err)
+            peak = 0
+            while proc.poll() is None:
+                peak = max(peak, tree_rss(proc))
+                time.sleep(0.05)
         wall = time.perf_counter() - t0
+        text = log.read_text()
         if proc.returncode:
-            raise RuntimeError(proc.stderr.read().decode())
+            raise RuntimeError(text)
+        found = re.search(r"chunks in ([0-9.]+) s", text)
+        chunk_seconds = float(found.group(1)) if found else float("nan")
     beams = round(sector_deg)
     return {
         "sector_deg": sector_deg,
@@ -73,6 +79,7 @@ def run(sector_deg: float, chunk: int, workers: int | None) -> dict:
         "workers": workers or "threads",
         "beams": beams,
         "seconds": round(wall, 1),
+        "chunk_seconds": chunk_seconds,
         "beams_per_s": round(beams / wall, 2),
         "peak_memory_mb": round(peak / 2**20),
     }
@@ -106,8 +113,8 @@ def main() -> None:
         row = run(sector, chunk, workers)
         rows.append(row)
         print(json.dumps(row), flush=True)
-    print("\n| sector | chunk | scheduler | s | beams/s | peak MB |")
-    print("|---|---|---|---|---|---|")
+    print("\n| sector | chunk | scheduler | s (whole run) | s (chunks) | beams/s | peak MB |")
+    print("|---|---|---|---|---|---|---|")
     for r in rows:
         sched = "threads" if r["workers"] == "threads" else f"{r['workers']} workers"
         print(

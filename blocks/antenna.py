@@ -71,6 +71,10 @@ class AxisymmetricAntenna(Block):
     gain_db = Param(45.5, units="dB", min=0.0, max=70.0, doc="peak gain")
     grid_step_deg = Param(0.05, units="deg", min=0.001, max=1.0, doc="pattern grid step")
 
+    @classmethod
+    def warm_up(cls) -> None:
+        from . import patterns  # noqa: F401
+
     def power_off_axis(self, theta_deg: np.ndarray) -> np.ndarray:
         raise NotImplementedError
 
@@ -214,6 +218,10 @@ class PlanarPatchArray(Block):
         doc="half-width of the pattern grid around the beam axis",
     )
     grid_step_deg = Param(0.05, units="deg", min=0.001, max=1.0, doc="pattern grid step")
+
+    @classmethod
+    def warm_up(cls) -> None:
+        from . import patterns  # noqa: F401
 
     def _array(self) -> dict[str, Any]:
         keys = (

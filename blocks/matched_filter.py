@@ -39,6 +39,10 @@ class MatchedFilter(Block):
     reference = Input(PULSE, doc="ideal waveform the filter is matched to")
     range_response = Output(RANGE_RESPONSE, doc="|y|^2 against range offset; noise bandwidth")
 
+    @classmethod
+    def warm_up(cls) -> None:
+        import scipy.signal  # noqa: F401
+
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         import scipy.signal  # slow to import; listing and validating blocks must not pay
 

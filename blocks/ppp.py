@@ -82,6 +82,10 @@ class PulsePairProcessor(Block):
     beams = Input(BEAMS, doc="beam geometry (PRT)")
     moments = Output(MOMENTS, store="moments", doc="estimated moments")
 
+    @classmethod
+    def warm_up(cls) -> None:
+        import xradar.model  # noqa: F401
+
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         import xradar.model as xm  # heavy; listing and validating blocks must not pay for it
 

@@ -52,6 +52,10 @@ class PPISector(Block):
     prt_s = Param(1 / 300, units="s", min=1e-5, max=0.1, doc="pulse repetition time")
     align_to_truth = Param(True, type="bool", doc="point each beam at the nearest truth radial")
 
+    @classmethod
+    def warm_up(cls) -> None:
+        import xradar.model  # noqa: F401
+
     def setup(self) -> None:
         span = (self.p["azimuth_stop_deg"] - self.p["azimuth_start_deg"]) % 360.0 or 360.0
         self.n_beams = max(1, round(span / self.p["beam_spacing_deg"]))

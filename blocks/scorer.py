@@ -69,6 +69,10 @@ class NexradScorer(Block):
         10.0, units="dB", min=-100.0, max=100.0, doc="score gates with expected SNR at least this"
     )
 
+    @classmethod
+    def warm_up(cls) -> None:
+        import xradar.model  # noqa: F401
+
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         import xradar.model as xm  # heavy; listing and validating blocks must not pay for it
 

@@ -290,6 +290,33 @@ class WeatherChannel(Block):
         doc="ignore truth radials whose two-way weight is below this level",
     )
 
+    transient = ("_prepared",)
+
+    def setup(self) -> None:
+        self._prepared: tuple[Any, Any] | None = None
+
+    def _prepare(
+        self, truth: xr.Dataset, pad: int, k0: float, prt: float, lam: float, pulses: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, CellModel]:
+        """Per-cell powers and moments, padded in range with the edge gates."""
+
+        def padded(a: np.ndarray) -> np.ndarray:
+            return np.pad(a, ((0, 0), (pad, pad)), mode="edge")
+
+        rng_m = truth["range"].values
+        dbz = padded(truth["DBZH"].values)
+        echo = np.isfinite(dbz)
+        r2 = padded(np.broadcast_to(rng_m**2, truth["DBZH"].shape))
+        # W per (sr m) before pattern and range weighting.
+        s_h = np.where(echo, k0 * 10 ** (np.nan_to_num(dbz, nan=-999.0) / 10), 0.0) / r2
+        field = {k: padded(_filled(truth, k, np.isfinite(truth["DBZH"].values))) for k in FILL}
+        zdr = 10 ** (np.clip(field["ZDR"], -8, 8) / 10)
+        rho = np.clip(field["RHOHV"], 0.0, 1.0)
+        cells = CellModel(
+            self.p["method"], field, rho, echo, prt, lam, pulses, self.p["drops_per_cell"]
+        )
+        return s_h, s_h / zdr, echo, cells
+
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         truth, beams = inputs["truth"], inputs["beams"]
         pattern, response = inputs["pattern"], inputs["range_response"]
@@ -318,21 +345,12 @@ class WeatherChannel(Block):
         pad = int(np.max(np.abs(k_off)))
         n_b, n_g = beams.sizes["beam"], rng_m.size
 
-        def padded(a: np.ndarray) -> np.ndarray:
-            return np.pad(a, ((0, 0), (pad, pad)), mode="edge")
-
-        dbz = padded(truth["DBZH"].values)
-        echo = np.isfinite(dbz)
-        r2 = padded(np.broadcast_to(rng_m**2, truth["DBZH"].shape))
-        # W per (sr m) before pattern and range weighting.
-        s_h = np.where(echo, k0 * 10 ** (np.nan_to_num(dbz, nan=-999.0) / 10), 0.0) / r2
-        field = {k: padded(_filled(truth, k, np.isfinite(truth["DBZH"].values))) for k in FILL}
-        zdr = 10 ** (np.clip(field["ZDR"], -8, 8) / 10)
-        rho = np.clip(field["RHOHV"], 0.0, 1.0)
-        s_v = s_h / zdr
-        cells = CellModel(
-            self.p["method"], field, rho, echo, prt, lam, pulses, self.p["drops_per_cell"]
-        )
+        # What depends only on the truth is prepared once and reused by every chunk (and, with
+        # threads, by every thread): it is a pure function of the inputs, memoised.
+        key = (id(truth), pad, k0, prt, lam, pulses)
+        if self._prepared is None or self._prepared[0] != key:
+            self._prepared = (key, self._prepare(truth, pad, k0, prt, lam, pulses))
+        s_h, s_v, echo, cells = self._prepared[1]
 
         d_az = pattern["azimuth_offset_deg"].values
         d_el = pattern["elevation_offset_deg"].values

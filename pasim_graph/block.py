@@ -67,6 +67,10 @@ class Block:
     #: Roles the command line can address: ``"truth"`` (``--truth``), ``"scan"`` (``--sector``).
     role: ClassVar[str] = ""
 
+    #: Attributes that only memoise derived data: dropped when a block is pickled (sent to a
+    #: worker), and rebuilt there on first use.
+    transient: ClassVar[tuple[str, ...]] = ()
+
     inputs: ClassVar[dict[str, Input]] = {}
     outputs: ClassVar[dict[str, Output]] = {}
     params: ClassVar[dict[str, Param]] = {}
@@ -118,6 +122,21 @@ class Block:
         e.g. ``("parameter 'snr_db'", "needs the input 'signal_power' connected")``.
         """
         return []
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        for name in self.transient:
+            state.pop(name, None)
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        for name in self.transient:
+            self.__dict__.setdefault(name, None)
+
+    @classmethod
+    def warm_up(cls) -> None:
+        """Import what the block imports lazily; a worker calls it before its first chunk."""
 
     def setup(self) -> None:
         """Derive state from the parameters (no I/O); called once when the block is built."""

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from .block import Block
 from .executor import LocalExecutor, RunOptions, chunks
 from .graph import Graph
 from .store import (
@@ -70,6 +71,11 @@ def run_key(graph: Graph, options: RunOptions) -> str:
 
 def _merge(parts: list[xr.Dataset]) -> xr.Dataset:
     return xr.merge(parts, compat="override", join="override", combine_attrs="override")
+
+
+def _warm_up(classes: list[type[Block]]) -> None:
+    for cls in classes:
+        cls.warm_up()
 
 
 def _run_and_write(
@@ -233,11 +239,16 @@ class DaskExecutor:
         from distributed import Client, LocalCluster
 
         if self.scheduler:
-            return Client(self.scheduler)
-        self._cluster = LocalCluster(
-            n_workers=self.workers, threads_per_worker=1, processes=True, dashboard_address=None
-        )
-        return Client(self._cluster)
+            client = Client(self.scheduler)
+        else:
+            self._cluster = LocalCluster(
+                n_workers=self.workers, threads_per_worker=1, processes=True, dashboard_address=None
+            )
+            client = Client(self._cluster)
+        # Workers import the block modules (and their numerical libraries) now, while this
+        # process is still reading the inputs, not when their first chunk arrives.
+        client.run(_warm_up, [self.graph.classes[n] for n in self.local.plan.per_chunk])
+        return client
 
     def _compute_distributed(
         self,
