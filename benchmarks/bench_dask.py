@@ -119,7 +119,7 @@ def main() -> None:
         sched = "threads" if r["workers"] == "threads" else f"{r['workers']} workers"
         print(
             f"| {r['sector_deg']} | {r['chunk']} | {sched} | {r['seconds']} | "
-            f"{r['beams_per_s']} | {r['peak_memory_mb']} |"
+            f"{r['chunk_seconds']} | {r['beams_per_s']} | {r['peak_memory_mb']} |"
         )
 
 
