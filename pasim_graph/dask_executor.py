@@ -195,7 +195,10 @@ class DaskExecutor:
             t2 = time.perf_counter()
         finally:
             if client is not None:
-                client.result().close()
+                # The cluster may have failed to start; then there is nothing to close.
+                connected = None if client.exception() else client.result()
+                if connected is not None:
+                    connected.close()
                 if self._cluster is not None:
                     self._cluster.close()
             pool.shutdown()
