@@ -304,11 +304,14 @@ class WeatherChannel(Block):
             return np.pad(a, ((0, 0), (pad, pad)), mode="edge")
 
         rng_m = truth["range"].values
-        dbz = padded(truth["DBZH"].values)
-        echo = np.isfinite(dbz)
         r2 = padded(np.broadcast_to(rng_m**2, truth["DBZH"].shape))
+        dbz = padded(truth["DBZH"].values)
+        # A gate at zero range (some legacy files start there) holds no echo volume.
+        echo = np.isfinite(dbz) & (r2 > 0)
         # W per (sr m) before pattern and range weighting.
-        s_h = np.where(echo, k0 * 10 ** (np.nan_to_num(dbz, nan=-999.0) / 10), 0.0) / r2
+        s_h = np.where(
+            echo, k0 * 10 ** (np.nan_to_num(dbz, nan=-999.0) / 10) / np.where(echo, r2, 1.0), 0.0
+        )
         field = {k: padded(_filled(truth, k, np.isfinite(truth["DBZH"].values))) for k in FILL}
         zdr = 10 ** (np.clip(field["ZDR"], -8, 8) / 10)
         rho = np.clip(field["RHOHV"], 0.0, 1.0)

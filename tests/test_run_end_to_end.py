@@ -118,3 +118,27 @@ def test_generic_radar_on_the_convective_sector(tmp_path):
     assert scores["DBZH"]["count"] >= 10_000
     assert scores["DBZH"]["std"] < 2.5
     assert scores["ZDR"]["std"] < 0.8
+
+
+def test_legacy_single_polarisation_file_runs(tmp_path):
+    """A legacy (message 1) Level-II file, as Py-ART's tests carry: no dual-pol truth, and
+    the run still completes and scores the moments the truth has."""
+    pyart_testing = pytest.importorskip("pyart.testing")
+    out = tmp_path / "legacy.zarr"
+    res = run_cli(
+        "run",
+        GENERIC,
+        "--truth",
+        pyart_testing.NEXRAD_ARCHIVE_MSG1_FILE,
+        "--sector",
+        "0:360",
+        "--set",
+        "scan.pulses=16",
+        "--out",
+        str(out),
+    )
+    assert res.returncode == 0, res.stderr
+    assert "Warning" not in res.stderr
+    scores = json.loads(run_cli("score", str(out), "--json").stdout)
+    assert "DBZH" in scores and scores["DBZH"]["count"] > 500
+    assert "ZDR" not in scores and "RHOHV" not in scores
