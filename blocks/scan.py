@@ -9,6 +9,7 @@ import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
+from .angles import circular_difference, nearest_radial
 from .signals import BEAMS, TRUTH
 
 
@@ -120,8 +121,7 @@ class PPISector(Block):
 
 
 def _nearest(az: np.ndarray, radials: np.ndarray) -> np.ndarray:
-    d = (radials[None, :] - az[:, None] + 180.0) % 360.0 - 180.0
-    return radials[np.argmin(np.abs(d), axis=1)]
+    return radials[nearest_radial(az, radials)]
 
 
 def _snap(az: np.ndarray, radials: np.ndarray) -> np.ndarray:
@@ -130,7 +130,7 @@ def _snap(az: np.ndarray, radials: np.ndarray) -> np.ndarray:
     Snapping each beam on its own would break ties differently from beam to beam (1 deg beams
     sit midway between 0.5 deg radials) and make the spacing uneven.
     """
-    shift = (_nearest(az[:1], radials)[0] - az[0] + 180.0) % 360.0 - 180.0
+    shift = circular_difference(_nearest(az[:1], radials)[0], az[0], 360.0)
     return _nearest((az + shift) % 360.0, radials)
 
 

@@ -9,6 +9,7 @@ import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
+from .angles import circular_difference, nearest_radial
 from .signals import BEAMS, MOMENTS, NOISE_POWER, SCORES, SIGNAL_POWER, TRUTH
 
 #: NEXRAD data-quality requirements (paper Table 3): bias, standard deviation, units.
@@ -20,11 +21,6 @@ REQUIREMENTS = {
     "RHOHV": (0.005, 0.01, "1"),
     "PHIDP": (1.0, 2.0, "deg"),
 }
-
-
-def circular_difference(a: np.ndarray, b: np.ndarray, period: np.ndarray | float) -> np.ndarray:
-    """a - b wrapped into [-period/2, period/2)."""
-    return (a - b + period / 2) % period - period / 2
 
 
 class NexradScorer(Block):
@@ -79,7 +75,7 @@ class NexradScorer(Block):
         est, truth, beams = inputs["moments"], inputs["truth"], inputs["beams"]
         radials = truth["azimuth"].values
         az = beams["azimuth"].values
-        nearest = np.argmin(np.abs((radials[None, :] - az[:, None] + 180) % 360 - 180), axis=1)
+        nearest = nearest_radial(az, radials)
         with np.errstate(divide="ignore"):
             snr = 10 * np.log10(inputs["signal_power"][..., 0] / inputs["noise_power"][..., 0])
         ref = truth.isel(radial=nearest)

@@ -9,6 +9,7 @@ import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
+from .angles import circular_difference
 from .signals import (
     BEAMS,
     CALIBRATION,
@@ -364,7 +365,7 @@ class WeatherChannel(Block):
             gen = chunk.rng(int(beam))
             az_b = float(beams["azimuth"].values[i])
             el_b = float(beams["elevation"].values[i])
-            delta = (az_truth - az_b + 180.0) % 360.0 - 180.0
+            delta = circular_difference(az_truth, az_b, 360.0)
             near = np.flatnonzero(np.abs(delta) <= support)
             profile = azimuth_profile(pattern["power"].values[i], d_el, el_b)
             omega = cell_solid_angles(profile, d_az, delta[near], width_deg)

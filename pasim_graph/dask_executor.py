@@ -34,6 +34,7 @@ from .graph import Graph
 from .store import (
     COMPLETE,
     StoreExistsError,
+    beam_dimension,
     create_volume,
     mark_complete,
     run_state,
@@ -213,7 +214,7 @@ class DaskExecutor:
         self.local._run_block(source, values, np.arange(plan.beam_count))
         beams = next(v for (b, _), v in values.items() if b == source)
         _, full = split_volume(beams, {})
-        dim = next(d for d in ("azimuth", "elevation", "time") if d in full.dims)
+        dim = beam_dimension(full)
         return {
             str(name): full[name].variable
             for name in full.coords

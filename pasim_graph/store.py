@@ -98,7 +98,7 @@ def create_volume(
     """
     import dask.array as da
 
-    beam_dim = _beam_dim(sweep)
+    beam_dim = beam_dimension(sweep)
     template = {}
     for name, var in sweep.data_vars.items():
         if beam_dim in var.dims:
@@ -125,7 +125,7 @@ def create_volume(
 
 def write_region(path: str | Path, sweep: xr.Dataset, start: int, chunk_index: int) -> None:
     """Write one chunk's beams into their region, then flag the chunk as done."""
-    beam_dim = _beam_dim(sweep)
+    beam_dim = beam_dimension(sweep)
     region_vars = [n for n, v in sweep.data_vars.items() if beam_dim in v.dims]
     ds = sweep[region_vars].drop_vars(list(sweep.coords), errors="ignore")
     stop = start + sweep.sizes[beam_dim]
@@ -159,7 +159,8 @@ def mark_complete(path: str | Path) -> None:
         zarr.consolidate_metadata(str(path))
 
 
-def _beam_dim(sweep: xr.Dataset) -> str:
+def beam_dimension(sweep: xr.Dataset) -> str:
+    """The dimension a stored sweep's beams run along."""
     for name in ("azimuth", "elevation", "time"):
         if name in sweep.dims:
             return name

@@ -21,8 +21,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
+from pasim_blocks.angles import circular_difference
 from pasim_blocks.scan import PPISector
-from pasim_blocks.scorer import NexradScorer, circular_difference
+from pasim_blocks.scorer import NexradScorer
 
 from pasim_graph import Chunk
 from pasim_graph.store import summarize
