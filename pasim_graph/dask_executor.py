@@ -29,7 +29,7 @@ import numpy as np
 import xarray as xr
 
 from .block import Block
-from .executor import LocalExecutor, RunOptions, chunks
+from .executor import LocalExecutor, RunOptions, chunks, merge_products
 from .graph import Graph
 from .store import (
     COMPLETE,
@@ -70,10 +70,6 @@ def run_key(graph: Graph, options: RunOptions) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def _merge(parts: list[xr.Dataset]) -> xr.Dataset:
-    return xr.merge(parts, compat="override", join="override", combine_attrs="override")
-
-
 def _warm_up(classes: list[type[Block]]) -> None:
     for cls in classes:
         cls.warm_up()
@@ -88,7 +84,7 @@ def _run_and_write(
     attrs: dict[str, Any],
 ) -> int:
     """One task: run the graph on a chunk of beams and write its region (on a worker)."""
-    _, sweep = split_volume(_merge(executor.run_chunk(static, beams)), attrs)
+    _, sweep = split_volume(merge_products(executor.run_chunk(static, beams)), attrs)
     write_region(path, sweep, int(beams[0]), index)
     return index
 
@@ -173,7 +169,7 @@ class DaskExecutor:
             if state is None:
                 # One beam fixes the store's layout; every chunk then runs in parallel.
                 parts = self.local.run_chunk(static, np.arange(1))
-                first = _merge(parts + self.local.static_products(static))
+                first = merge_products(parts + self.local.static_products(static))
                 root, sweep = split_volume(first, attrs)
                 create_volume(
                     path,

@@ -91,6 +91,11 @@ def plan(graph: Graph, options: RunOptions) -> Plan:
     return Plan(graph, blocks, static, per_chunk, sinks, blocks[source].beam_count())
 
 
+def merge_products(parts: list[xr.Dataset]) -> xr.Dataset:
+    """One sweep from the stored Datasets of several blocks (they share their coordinates)."""
+    return xr.merge(parts, compat="override", join="override", combine_attrs="override")
+
+
 def chunks(n_beams: int, size: int) -> Iterator[np.ndarray]:
     size = max(1, int(size))
     for start in range(0, n_beams, size):
@@ -179,4 +184,4 @@ class LocalExecutor:
             for group in zip(*parts, strict=True)
         ]
         merged += self.static_products(static)
-        return xr.merge(merged, compat="override", join="override", combine_attrs="override")
+        return merge_products(merged)
