@@ -9,7 +9,70 @@ import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output
 
-from .signals import BEAMS, CALIBRATION, IQ, MOMENTS, NOISE_POWER
+from .signals import (
+    BEAMS,
+    CALIBRATION,
+    CORRELATION_PRODUCTS,
+    ECHO_CORRELATIONS,
+    IQ,
+    MOMENT_FIELDS,
+    MOMENTS,
+    NOISE_POWER,
+    POLARIMETRIC_FIELDS,
+)
+
+
+def correlations(iq_h: np.ndarray, iq_v: np.ndarray | None, doppler: bool = True) -> dict:
+    """Sample correlations along the last (pulse) axis: lag-0 H and V, lag-1 H, lag-0 E[h* v].
+
+    ``iq_v`` None (single polarisation, or no polarimetric field asked for) and ``doppler``
+    False leave out what they need.
+    """
+    out = {"R0_H": np.mean(np.abs(iq_h) ** 2, axis=-1)}
+    if doppler:
+        out["R1_H"] = np.mean(np.conj(iq_h[..., :-1]) * iq_h[..., 1:], axis=-1)
+    if iq_v is not None:
+        out["R0_V"] = np.mean(np.abs(iq_v) ** 2, axis=-1)
+        out["R0_HV"] = np.mean(np.conj(iq_h) * iq_v, axis=-1)
+    return out
+
+
+def moments_from_correlations(
+    corr: dict,
+    noise_h: float | np.ndarray,
+    noise_v: float | np.ndarray,
+    prt_s: float,
+    wavelength_m: float,
+) -> dict[str, np.ndarray]:
+    """Noise-corrected pulse-pair estimates from lag-0, lag-1 and H-V correlations.
+
+    Returns what the correlations allow of: signal powers ``S_H``, ``S_V`` (W; may be
+    negative, meaning noise dominates), velocity (m/s, positive away), spectrum width (m/s),
+    ZDR (dB), rho_hv and phi_DP (deg, in [0, 360)). Estimates that are undefined are NaN: every
+    one where S_H <= 0, the polarimetric ones where S_V <= 0.
+    """
+    p_h = np.real(corr["R0_H"]) - noise_h
+    ok_h = p_h > 0
+    nan = np.float64(np.nan)
+    out: dict[str, np.ndarray] = {"S_H": p_h}
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if "R1_H" in corr:
+            r1 = corr["R1_H"]
+            velocity = -wavelength_m / (4 * np.pi * prt_s) * np.angle(r1)
+            ratio = np.log(np.where(ok_h, p_h, np.nan) / np.abs(r1))
+            # |R1| above the corrected power (noise or short dwell): width below resolution.
+            width = wavelength_m / (2 * np.sqrt(2) * np.pi * prt_s) * np.sqrt(np.maximum(ratio, 0))
+            out["VRADH"] = np.where(ok_h & (np.abs(r1) > 0), velocity, nan)
+            out["WRADH"] = np.where(ok_h & (np.abs(r1) > 0), width, nan)
+        if "R0_V" in corr:
+            p_v = np.real(corr["R0_V"]) - noise_v
+            r_hv = corr["R0_HV"]
+            ok = ok_h & (p_v > 0)
+            out["S_V"] = p_v
+            out["ZDR"] = 10 * np.log10(np.where(ok, p_h / p_v, np.nan))
+            out["RHOHV"] = np.abs(r_hv) / np.sqrt(np.where(ok, p_h * p_v, np.nan))
+            out["PHIDP"] = np.where(ok, np.mod(np.rad2deg(np.angle(r_hv)), 360.0), nan)
+    return out
 
 
 def pulse_pair(
@@ -20,37 +83,13 @@ def pulse_pair(
     prt_s: float,
     wavelength_m: float,
 ) -> dict[str, np.ndarray]:
-    """Noise-corrected pulse-pair estimates along the last (pulse) axis.
+    """Noise-corrected pulse-pair estimates of all six moments along the last (pulse) axis.
 
-    Returns signal powers ``S_H``, ``S_V`` (W; may be negative, meaning noise dominates),
-    velocity (m/s, positive away), spectrum width (m/s), ZDR (dB), rho_hv and phi_DP (deg,
-    in [0, 360)). Estimates that are undefined are NaN: every one where S_H <= 0, the
-    polarimetric ones where S_V <= 0.
+    See :func:`moments_from_correlations` for what is returned.
     """
-    p_h = np.mean(np.abs(iq_h) ** 2, axis=-1) - noise_h
-    p_v = np.mean(np.abs(iq_v) ** 2, axis=-1) - noise_v
-    r1 = np.mean(np.conj(iq_h[..., :-1]) * iq_h[..., 1:], axis=-1)
-    r_hv = np.mean(np.conj(iq_h) * iq_v, axis=-1)
-    ok_h = p_h > 0
-    ok = ok_h & (p_v > 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        velocity = -wavelength_m / (4 * np.pi * prt_s) * np.angle(r1)
-        ratio = np.log(np.where(ok_h, p_h, np.nan) / np.abs(r1))
-        # |R1| above the corrected power (noise or short dwell) means a width below resolution.
-        width = wavelength_m / (2 * np.sqrt(2) * np.pi * prt_s) * np.sqrt(np.maximum(ratio, 0))
-        zdr = 10 * np.log10(np.where(ok, p_h / p_v, np.nan))
-        rho = np.abs(r_hv) / np.sqrt(np.where(ok, p_h * p_v, np.nan))
-    phidp = np.mod(np.rad2deg(np.angle(r_hv)), 360.0)
-    nan = np.float64(np.nan)
-    return {
-        "S_H": p_h,
-        "S_V": p_v,
-        "VRADH": np.where(ok_h & (np.abs(r1) > 0), velocity, nan),
-        "WRADH": np.where(ok_h & (np.abs(r1) > 0), width, nan),
-        "ZDR": zdr,
-        "RHOHV": rho,
-        "PHIDP": np.where(ok, phidp, nan),
-    }
+    return moments_from_correlations(
+        correlations(iq_h, iq_v), noise_h, noise_v, prt_s, wavelength_m
+    )
 
 
 class PulsePairProcessor(Block):
@@ -61,7 +100,10 @@ class PulsePairProcessor(Block):
     noise-corrected lag-0 power to |lag-1| (Gaussian spectrum); ZDR from the two corrected
     powers; rho_hv = |lag-0 H-V cross-correlation| / sqrt(product of corrected powers), kept
     above 1 when the estimate is (clip only for display); phi_DP is its phase. Gates where the
-    corrected power is not positive are masked.
+    corrected power is not positive are masked. An I/Q cube without pulses (the weather
+    channel's ``expected`` level) is estimated from the expected echo correlations instead,
+    without noise. Single-polarisation runs (calibration ``dual_polarization`` 0) and runs
+    that ask for some fields only skip what is not needed.
 
     Inputs
     ------
@@ -69,18 +111,24 @@ class PulsePairProcessor(Block):
     noise_power : noise_power
     calibration : calibration
     beams : beams
+    echo_correlations : echo_correlations, optional
+        Needed at the weather channel's ``expected`` level.
 
     Outputs
     -------
     moments : moments
-        DBZH, ZDR, RHOHV, PHIDP, VRADH, WRADH and the Nyquist velocity; written to the volume.
+        DBZH, ZDR, RHOHV, PHIDP, VRADH, WRADH (those asked for) and the Nyquist velocity;
+        written to the volume.
     """
 
     iq = Input(IQ, doc="received I/Q")
     noise_power = Input(NOISE_POWER, doc="noise power per channel")
     calibration = Input(CALIBRATION, doc="radar constant and gate ranges")
     beams = Input(BEAMS, doc="beam geometry (PRT)")
-    moments = Output(MOMENTS, store="moments", doc="estimated moments")
+    echo_correlations = Input(
+        ECHO_CORRELATIONS, required=False, doc="expected echo correlations (expected level)"
+    )
+    moments = Output(MOMENTS, store="moments", doc="estimated moments", fields=MOMENT_FIELDS)
 
     @classmethod
     def warm_up(cls) -> None:
@@ -93,7 +141,27 @@ class PulsePairProcessor(Block):
         cal = inputs["calibration"]
         prt = float(inputs["beams"]["prt"].values[0])
         lam = float(cal.attrs["wavelength_m"])
-        est = pulse_pair(iq[..., 0], iq[..., 1], noise[..., 0], noise[..., 1], prt, lam)
+        dual = bool(cal.attrs.get("dual_polarization", 1)) and chunk.wants(*POLARIMETRIC_FIELDS)
+        doppler = chunk.wants("VRADH", "WRADH")
+        if iq.shape[2] == 0:
+            # The weather channel's expected level: its expected correlations are what an
+            # endless, noise-free dwell would measure.
+            if inputs.get("echo_correlations") is None:
+                raise ValueError(
+                    "the I/Q cube has no pulses (weather method 'expected') but the input "
+                    "'echo_correlations' is not connected"
+                )
+            expected = inputs["echo_correlations"]
+            corr = {k: expected[..., i] for i, k in enumerate(CORRELATION_PRODUCTS)}
+            keep = (
+                {"R0_H"} | ({"R1_H"} if doppler else set()) | ({"R0_V", "R0_HV"} if dual else set())
+            )
+            est = moments_from_correlations(
+                {k: v for k, v in corr.items() if k in keep}, 0.0, 0.0, prt, lam
+            )
+        else:
+            corr = correlations(iq[..., 0], iq[..., 1] if dual else None, doppler)
+            est = moments_from_correlations(corr, noise[..., 0], noise[..., 1], prt, lam)
         rng = cal["range"].values
         const = cal["radar_constant_db"].values  # beam x polarisation
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -102,16 +170,12 @@ class PulsePairProcessor(Block):
                 + 20 * np.log10(rng)[None, :]
                 - const[:, :1]
             )
+        fields = {"DBZH": dbz}
+        if "ZDR" in est:
             # The V radar constant may differ from H (patterns); ZDR is corrected for that.
-            zdr = est["ZDR"] - (const[:, :1] - const[:, 1:])
-        fields = {
-            "DBZH": dbz,
-            "ZDR": zdr,
-            "RHOHV": est["RHOHV"],
-            "PHIDP": est["PHIDP"],
-            "VRADH": est["VRADH"],
-            "WRADH": est["WRADH"],
-        }
+            fields["ZDR"] = est["ZDR"] - (const[:, :1] - const[:, 1:])
+        fields |= {k: est[k] for k in ("RHOHV", "PHIDP", "VRADH", "WRADH") if k in est}
+        fields = {k: v for k, v in fields.items() if chunk.wants(k)}
         ds = xr.Dataset(
             {
                 k: (("beam", "range"), v.astype(np.float32), dict(xm.sweep_vars_mapping[k]))

@@ -14,6 +14,7 @@ from .signals import (
     IQ,
     IQ_CUBE,
     NOISE_POWER,
+    POLARIMETRIC_FIELDS,
     POLARIZATIONS,
     RANGE_RESPONSE,
     SIGNAL_POWER,
@@ -29,7 +30,8 @@ class Receiver(Block):
     echo power there divided by that SNR (estimator studies); both channels get the same noise
     power, so V's SNR is lower by ZDR. Gates without echo then keep the thermal noise. Noise is
     circular complex Gaussian, independent per gate, pulse and channel, drawn from each beam's
-    own random stream. Everything is referred to the receiver input: a linear gain scales echo
+    own random streams (H and V apart; V is skipped when no polarimetric field is asked for).
+    Everything is referred to the receiver input: a linear gain scales echo
     and noise alike and changes no moment, so it is left out until saturation and the ADC are
     modelled.
 
@@ -89,11 +91,14 @@ class Receiver(Block):
             signal = inputs["signal_power"][..., 0].astype(np.float64)
             fixed = signal / 10 ** (self.p["snr_db"] / 10)
             noise[:] = np.where(signal > 0, fixed, thermal)[..., None]
-        out = np.empty_like(echo)
-        scale = np.sqrt(noise / 2).astype(np.float32)[:, :, None, :]
+        out = echo.copy()
+        scale = np.sqrt(noise / 2).astype(np.float32)
+        # H and V noise from their own streams: asking for H only leaves H's numbers unchanged.
+        channels = [0, 1] if chunk.wants(*POLARIMETRIC_FIELDS) else [0]
         for i, beam in enumerate(chunk.beams):
-            w = chunk.rng(int(beam)).standard_normal((*echo.shape[1:], 2), dtype=np.float32)
-            out[i] = echo[i] + scale[i] * (w[..., 0] + 1j * w[..., 1])
+            for k in channels:
+                w = chunk.rng(int(beam), k).standard_normal((*echo.shape[1:3], 2), np.float32)
+                out[i, ..., k] += scale[i, :, None, k] * (w[..., 0] + 1j * w[..., 1])
         result: dict[str, Any] = {"iq": out, "noise_power": noise}
         if chunk.options.get("save_iq"):
             dims = ("beam", "range", "pulse")

@@ -120,6 +120,8 @@ class NexradScorer(Block):
             else:
                 err = e - t
             err = np.where(scored & np.isfinite(err), err, np.nan)
+            # Circular moments say their period, so differences of errors can be wrapped too.
+            period = {"VRADH": float(2 * nyquist.flat[0]), "PHIDP": 360.0}.get(name)
             out[f"truth_{name}"] = (
                 dims,
                 t.astype(np.float32),
@@ -137,6 +139,7 @@ class NexradScorer(Block):
                     "requirement_std": req_s,
                     "scored": rule,
                     "long_name": f"{name} estimate minus truth",
+                    **({"period": period} if period else {}),
                 },
             )
         return {"scores": out}

@@ -31,6 +31,11 @@ IQ = PortType("iq", "complex64", ("beam", "range", "pulse", "polarization"), "sq
 IQ_CUBE = PortType("iq_cube", DATASET, ("beam", "range", "pulse"), "sqrt(W)")
 #: Expected (noise-free) signal power per gate and polarisation.
 SIGNAL_POWER = PortType("signal_power", "float32", ("beam", "range", "polarization"), "W")
+#: Expected (noise-free) correlations of the echo per gate: lag-0 and lag-1 of H and V and the
+#: lag-0 H-V cross-correlation E[h* v], in the order of CORRELATION_PRODUCTS.
+ECHO_CORRELATIONS = PortType(
+    "echo_correlations", "complex128", ("beam", "range", "correlation"), "W"
+)
 #: Receiver noise power per gate and polarisation, at the matched-filter output.
 NOISE_POWER = PortType("noise_power", "float64", ("beam", "range", "polarization"), "W")
 #: Radar constant per beam and polarisation, with the gate ranges.
@@ -41,3 +46,7 @@ MOMENTS = PortType("moments", DATASET, ("beam", "range"), "cfradial")
 SCORES = PortType("scores", DATASET, ("beam", "range"), "cfradial")
 
 POLARIZATIONS = ("H", "V")
+CORRELATION_PRODUCTS = ("R0_H", "R0_V", "R1_H", "R1_V", "R0_HV")
+#: The moments a pulse-pair processor estimates, CfRadial names.
+MOMENT_FIELDS = ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH")
+POLARIMETRIC_FIELDS = ("ZDR", "RHOHV", "PHIDP")

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import scipy.fft
 import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output, Param
@@ -13,9 +14,12 @@ from .angles import circular_difference
 from .signals import (
     BEAMS,
     CALIBRATION,
+    CORRELATION_PRODUCTS,
+    ECHO_CORRELATIONS,
     IQ,
     KW2,
     PATTERN,
+    POLARIMETRIC_FIELDS,
     POLARIZATIONS,
     RANGE_RESPONSE,
     SIGNAL_POWER,
@@ -30,6 +34,9 @@ FILL = {"VRADH": 0.0, "WRADH": 1.0, "ZDR": 0.0, "RHOHV": 0.99, "PHIDP": 0.0}
 # Added to the diagonal of each normalised covariance so that narrow spectra (width 0 makes it
 # rank one) still factor in float64; it is a white component 60 dB below the signal.
 JITTER = 1e-6
+
+#: Fidelity levels of the weather channel, fastest first.
+METHODS = ("expected", "combined", "covariance", "monte_carlo")
 
 
 def range_weights(response: xr.Dataset, gate_width_m: float) -> tuple[np.ndarray, np.ndarray]:
@@ -81,7 +88,7 @@ def cell_solid_angles(
 
 
 def gaussian_acf_factors(
-    width_ms: np.ndarray, prt_s: float, wavelength_m: float, pulses: int
+    width_ms: np.ndarray, prt_s: float, wavelength_m: float, pulses: int, dtype: type = np.float32
 ) -> np.ndarray:
     """Cholesky factors of the normalised pulse-to-pulse covariance (paper eq. 13), per cell.
 
@@ -97,7 +104,7 @@ def gaussian_acf_factors(
     # Entries this small change nothing, but as float32 subnormals they slow every product
     # with them a hundredfold.
     factors[np.abs(factors) < 1e-20] = 0.0
-    return factors.astype(np.float32)
+    return factors.astype(dtype)
 
 
 class FactorCache:
@@ -109,19 +116,26 @@ class FactorCache:
     """
 
     def __init__(
-        self, width_ms: np.ndarray, echo: np.ndarray, prt_s: float, wavelength_m: float, pulses: int
+        self,
+        width_ms: np.ndarray,
+        echo: np.ndarray,
+        prt_s: float,
+        wavelength_m: float,
+        pulses: int,
+        dtype: type = np.float32,
     ):
         self.widths, codes = np.unique(width_ms[echo], return_inverse=True)
         self.code = np.full(echo.shape, -1, np.int64)
         self.code[echo] = codes.ravel()
         self.args = (prt_s, wavelength_m, pulses)
+        self.dtype = dtype
         self.factors: dict[int, np.ndarray] = {}
 
     def colour(self, codes: np.ndarray, gen: np.random.Generator) -> np.ndarray:
-        """Draw coloured sequences for cells with width codes ``codes``: (cell, 4, pulse).
+        """Draw coloured sequences for cells with width codes ``codes``: (cell, 2, pulse).
 
         Cells are drawn grouped by width so each group is one matrix product on contiguous
-        memory; the four rows per cell are the real and imaginary parts of V1 and V2.
+        memory; the two rows per cell are the real and imaginary parts of one complex sequence.
         """
         pulses = self.args[2]
         order = np.argsort(codes, kind="stable")
@@ -131,24 +145,62 @@ class FactorCache:
         stops = np.concatenate([bounds, [codes.size]])
         missing = [int(c) for c in sorted_codes[starts] if int(c) not in self.factors]
         if missing:
-            new = gaussian_acf_factors(self.widths[missing], *self.args)
+            new = gaussian_acf_factors(self.widths[missing], *self.args, self.dtype)
             self.factors.update(zip(missing, new, strict=True))
-        white = gen.standard_normal((codes.size, 4, pulses), dtype=np.float32)
+        white = gen.standard_normal((codes.size, 2, pulses), dtype=self.dtype)
         out = np.empty_like(white)
         for a, b in zip(starts, stops, strict=True):
             factor = self.factors[int(sorted_codes[a])]
-            out[a:b] = (white[a:b].reshape(-1, pulses) @ factor.T).reshape(b - a, 4, pulses)
+            out[a:b] = (white[a:b].reshape(-1, pulses) @ factor.T).reshape(b - a, 2, pulses)
         # Back to the callers' cell order.
         result = np.empty_like(out)
         result[order] = out
         return result
 
 
+def embedded_spectra(
+    velocity_ms: np.ndarray,
+    width_ms: np.ndarray,
+    prt_s: float,
+    wavelength_m: float,
+    pulses: int,
+    dtype: type,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues of the 2M circulant embedding of each cell's normalised autocorrelation.
+
+    r(l) = exp(-8 (pi w l T / lambda)^2) exp(-j 4 pi v l T / lambda), l = 0..M-1, is placed in
+    the first column of a Hermitian circulant of size N = 2M (c[M] = Re r(M), c[N-l] = r(l)*);
+    its top-left M x M block is the Toeplitz covariance of eq. 13, so drawing from the
+    circulant and keeping M samples is exact when every eigenvalue is non-negative. Returns the
+    eigenvalues (cells x N, real) and a flag per cell that is True when the embedding is not
+    positive semi-definite (spectra too narrow to decay by lag M: width 0, or a few tenths of a
+    m/s at long PRTs); such cells need the per-cell path.
+    """
+    n = 2 * pulses
+    lag = np.arange(pulses + 1, dtype=np.float64)
+    a = np.pi * prt_s / wavelength_m
+    r = np.exp(-8.0 * (a * width_ms[:, None] * lag) ** 2) * np.exp(
+        -4j * a * velocity_ms[:, None] * lag
+    )
+    c = np.zeros((velocity_ms.size, n), np.complex128)
+    c[:, :pulses] = r[:, :pulses]
+    c[:, pulses] = r[:, pulses].real
+    c[:, pulses + 1 :] = np.conj(r[:, pulses - 1 : 0 : -1])
+    lam = np.fft.fft(c, axis=1).real
+    peak = lam.max(axis=1, keepdims=True)
+    narrow = (lam.min(axis=1) < -1e-6 * peak[:, 0]) | (width_ms <= 0)
+    # Round-off below the working precision; left in, float32 subnormals slow the sums.
+    tiny = 1e-12 if dtype == np.float32 else 1e-30
+    lam = np.where(lam > tiny * peak, lam, 0.0)
+    return lam.astype(dtype), narrow
+
+
 class CellModel:
     """Unit-power H and V slow-time series of truth cells, by one of the paper's two methods.
 
-    ``draw(rows, gates, gen)`` returns (h, v), each cell x pulse complex64, with E|h|^2 = 1
-    and E|v|^2 = 1 (powers and pattern weights are applied by the caller):
+    ``draw(rows, gates, gen_h, gen_v, need_v)`` returns (h, v), each cell x pulse, with
+    E|h|^2 = 1 and E|v|^2 = 1 (powers and pattern weights are applied by the caller); H is
+    drawn from ``gen_h`` only, so it is the same whether or not V is asked for:
 
     - ``covariance`` (eq. 13-18): V1, V2 coloured with the Cholesky factor of the Gaussian
       autocorrelation, h = V1, v = [rho V1 + sqrt(1 - rho^2) V2] exp(j phi_DP).
@@ -168,41 +220,59 @@ class CellModel:
         wavelength_m: float,
         pulses: int,
         drops: int,
+        dtype: type = np.float32,
     ):
         self.method = method
         self.field = field
         self.rho = rho
         self.prt_s, self.wavelength_m, self.pulses, self.drops = prt_s, wavelength_m, pulses, drops
+        self.dtype = dtype
+        self.cdtype = np.complex64 if dtype == np.float32 else np.complex128
         self.phase_dp = np.exp(1j * np.deg2rad(field["PHIDP"]))
-        if method == "covariance":
+        if method != "monte_carlo":
             self.factors = FactorCache(
-                np.clip(field["WRADH"], 0, None), echo, prt_s, wavelength_m, pulses
+                np.clip(field["WRADH"], 0, None), echo, prt_s, wavelength_m, pulses, dtype
             )
 
     def draw(
-        self, rows: np.ndarray, gates: np.ndarray, gen: np.random.Generator
-    ) -> tuple[np.ndarray, np.ndarray]:
+        self,
+        rows: np.ndarray,
+        gates: np.ndarray,
+        gen_h: np.random.Generator,
+        gen_v: np.random.Generator,
+        need_v: bool = True,
+    ) -> tuple[np.ndarray, np.ndarray | None]:
         if self.method == "monte_carlo":
-            return self._drops(rows, gates, gen)
+            return self._drops(rows, gates, gen_h, gen_v, need_v)
         m = np.arange(self.pulses)[None, :]
-        y = self.factors.colour(self.factors.code[rows, gates], gen)
         doppler = np.exp(
             (-4j * np.pi * self.prt_s / self.wavelength_m)
             * (self.field["VRADH"][rows, gates][:, None] * m)
-        ).astype(np.complex64)
+        ).astype(self.cdtype)
+        codes = self.factors.code[rows, gates]
         # sqrt(1/2): the white sequences have unit variance per real component.
-        x1 = (y[:, 0] + 1j * y[:, 1]) * doppler * np.float32(np.sqrt(0.5))
-        x2 = (y[:, 2] + 1j * y[:, 3]) * doppler * np.float32(np.sqrt(0.5))
-        r = self.rho[rows, gates][:, None].astype(np.float32)
+        half = self.dtype(np.sqrt(0.5))
+        y1 = self.factors.colour(codes, gen_h)
+        x1 = (y1[:, 0] + 1j * y1[:, 1]) * doppler * half
+        if not need_v:
+            return x1, None
+        y2 = self.factors.colour(codes, gen_v)
+        x2 = (y2[:, 0] + 1j * y2[:, 1]) * doppler * half
+        r = self.rho[rows, gates][:, None].astype(self.dtype)
         v = (r * x1 + np.sqrt(1 - r**2) * x2) * self.phase_dp[rows, gates][:, None]
-        return x1, v.astype(np.complex64)
+        return x1, v.astype(self.cdtype)
 
     def _drops(
-        self, rows: np.ndarray, gates: np.ndarray, gen: np.random.Generator
-    ) -> tuple[np.ndarray, np.ndarray]:
+        self,
+        rows: np.ndarray,
+        gates: np.ndarray,
+        gen_h: np.random.Generator,
+        gen_v: np.random.Generator,
+        need_v: bool,
+    ) -> tuple[np.ndarray, np.ndarray | None]:
         n, d, pulses = rows.size, self.drops, self.pulses
-        h = np.empty((n, pulses), np.complex64)
-        v = np.empty((n, pulses), np.complex64)
+        h = np.empty((n, pulses), self.cdtype)
+        v = np.empty((n, pulses), self.cdtype) if need_v else None
         k = -4 * np.pi / self.wavelength_m
         m = np.arange(pulses)
         # Cells in batches, so the drops x pulses phasors of a batch stay small in memory.
@@ -212,35 +282,162 @@ class CellModel:
             rr, gg = rows[a:b], gates[a:b]
             mean = self.field["VRADH"][rr, gg][:, None]
             width = np.clip(self.field["WRADH"][rr, gg], 0, None)[:, None]
-            velocity = mean + width * gen.standard_normal((b - a, d))
-            position = gen.uniform(0.0, 2 * np.pi, (b - a, d))
+            velocity = mean + width * gen_h.standard_normal((b - a, d))
+            position = gen_h.uniform(0.0, 2 * np.pi, (b - a, d))
             sigma = np.sqrt(-2 * np.log(np.clip(self.rho[rr, gg], 1e-12, 1.0)) / 2)[:, None]
-            phi_h = sigma * gen.standard_normal((b - a, d))
-            phi_v = sigma * gen.standard_normal((b - a, d))
+            phi_h = sigma * gen_h.standard_normal((b - a, d))
             # Phase of each drop at each pulse: it moves velocity * PRT every pulse.
             track = np.exp(1j * (position[..., None] + k * velocity[..., None] * (m * self.prt_s)))
             scale = 1 / np.sqrt(d)
             h[a:b] = scale * np.einsum("cd,cdm->cm", np.exp(1j * phi_h), track)
-            v[a:b] = (
-                scale
-                * np.einsum("cd,cdm->cm", np.exp(1j * phi_v), track)
-                * self.phase_dp[rr, gg][:, None]
-            )
+            if v is not None:
+                phi_v = sigma * gen_v.standard_normal((b - a, d))
+                v[a:b] = (
+                    scale
+                    * np.einsum("cd,cdm->cm", np.exp(1j * phi_v), track)
+                    * self.phase_dp[rr, gg][:, None]
+                )
         return h, v
 
 
+class TruthCells:
+    """What the weather channel needs of the truth, prepared once per run and shared by beams.
+
+    Powers per cell (W per sr m, before pattern and range weighting), moments with fill values,
+    the per-cell lag-1 correlation and H-V cross term for the expected correlations, and the
+    per-cell time-series model of the chosen level. Fields are padded in range with the edge
+    gates (the weather is taken to go on), so the first and last gates see neighbours like
+    every other gate.
+    """
+
+    def __init__(
+        self,
+        truth: xr.Dataset,
+        pad: int,
+        k0: float,
+        prt_s: float,
+        wavelength_m: float,
+        pulses: int,
+        method: str,
+        drops: int,
+        dtype: type,
+    ):
+        def padded(a: np.ndarray) -> np.ndarray:
+            return np.pad(a, ((0, 0), (pad, pad)), mode="edge")
+
+        rng_m = truth["range"].values
+        r2 = padded(np.broadcast_to(rng_m**2, truth["DBZH"].shape))
+        dbz = padded(truth["DBZH"].values)
+        # A gate at zero range (some legacy files start there) holds no echo volume.
+        self.echo = np.isfinite(dbz) & (r2 > 0)
+        self.s_h = np.where(
+            self.echo,
+            k0 * 10 ** (np.nan_to_num(dbz, nan=-999.0) / 10) / np.where(self.echo, r2, 1.0),
+            0.0,
+        )
+        field = {k: padded(_filled(truth, k, np.isfinite(truth["DBZH"].values))) for k in FILL}
+        self.s_v = self.s_h / 10 ** (np.clip(field["ZDR"], -8, 8) / 10)
+        rho = np.clip(field["RHOHV"], 0.0, 1.0)
+        width = np.clip(field["WRADH"], 0.0, None)
+        a = np.pi * prt_s / wavelength_m
+        lag1 = np.exp(-8.0 * (a * width) ** 2) * np.exp(-4j * a * field["VRADH"])
+        # Per-cell expected lag-1 correlations, before pattern and range weighting.
+        self.r1_h, self.r1_v = self.s_h * lag1, self.s_v * lag1
+        self.cross = np.sqrt(self.s_h * self.s_v) * rho * np.exp(1j * np.deg2rad(field["PHIDP"]))
+        self.pulses = pulses
+        self.dtype = dtype
+        # The per-cell draws of every level but `expected`: all echo cells for covariance and
+        # monte_carlo, the cells too narrow for the spectral draw for combined.
+        self.per_cell = self.echo.copy() if method in ("covariance", "monte_carlo") else None
+        self.model = None
+        if method in ("covariance", "monte_carlo", "combined"):
+            self.model = CellModel(
+                "monte_carlo" if method == "monte_carlo" else "covariance",
+                field,
+                rho,
+                self.echo,
+                prt_s,
+                wavelength_m,
+                pulses,
+                drops,
+                dtype,
+            )
+        if method == "combined":
+            self._spectra(field["VRADH"], width, prt_s, wavelength_m)
+
+    def _spectra(
+        self, velocity: np.ndarray, width: np.ndarray, prt_s: float, wavelength_m: float
+    ) -> None:
+        # Cells share the spectrum of equal (velocity, width); velocity only matters modulo the
+        # Nyquist interval. Rounding both to 0.01 m/s (far below any estimator's resolution)
+        # keeps the number of distinct spectra small for any truth; Level-II data is on a
+        # 0.5 m/s grid already.
+        nyquist = wavelength_m / (4 * prt_s)
+        v = np.round(np.mod(velocity + nyquist, 2 * nyquist) - nyquist, 2)
+        w = np.round(width, 2)
+        pairs, codes = np.unique(
+            np.stack([v[self.echo], w[self.echo]], axis=1), axis=0, return_inverse=True
+        )
+        lam, narrow = embedded_spectra(
+            pairs[:, 0], pairs[:, 1], prt_s, wavelength_m, self.pulses, self.dtype
+        )
+        # One extra all-zero spectrum for cells without echo or drawn per cell.
+        lam = np.concatenate([lam, np.zeros((1, lam.shape[1]), lam.dtype)])
+        lam[np.flatnonzero(narrow)] = 0.0
+        self.spectra = lam
+        self.code = np.full(self.echo.shape, pairs.shape[0], np.int32)
+        self.code[self.echo] = codes.ravel()
+        narrow_cell = np.zeros(self.echo.shape, bool)
+        narrow_cell[self.echo] = narrow[codes.ravel()]
+        # Width 0 (common in Level-II data): a cell is a tone with a random complex amplitude,
+        # and tones of one velocity add to one tone, so they are drawn per gate and velocity.
+        self.tone = narrow_cell & (w == 0)
+        self.per_cell = narrow_cell & ~self.tone
+        self.wide = self.echo & ~narrow_cell
+        self.tone_velocities, tone_codes = np.unique(v[self.tone], return_inverse=True)
+        self.tone_code = np.zeros(self.echo.shape, np.int64)
+        self.tone_code[self.tone] = tone_codes.ravel()
+        m = np.arange(self.pulses)
+        self.tones = np.exp(
+            -4j * np.pi * prt_s / wavelength_m * self.tone_velocities[:, None] * m
+        ).astype(np.complex64 if self.dtype == np.float32 else np.complex128)
+
+
+def range_sum(a: np.ndarray, k_off: np.ndarray, weights: np.ndarray, pad: int, n_g: int) -> Any:
+    """sum_k weights[k] * a[pad + k : pad + k + n_g] along the first axis (the range weighting)."""
+    # Weights in the array's own precision, so float32 work is not promoted to float64.
+    w = np.asarray(weights).astype(np.real(a[:0]).dtype)
+    out = w[0] * a[pad + k_off[0] : pad + k_off[0] + n_g]
+    for k, wk in zip(k_off[1:], w[1:], strict=True):
+        out += wk * a[pad + k : pad + k + n_g]
+    return out
+
+
 class WeatherChannel(Block):
-    """Echoes of the truth cells around each beam: paper's covariance method (eq. 13-18).
+    """Echoes of the truth cells around each beam, at one of four fidelity levels.
 
     Every truth cell with echo inside the pattern grid is an independent Gaussian scatterer
-    ensemble. Its slow-time series is drawn with the covariance of a Gaussian Doppler spectrum
-    (mean velocity, spectrum width; Cholesky colouring of two white sequences V1, V2), and its
-    H and V returns are S_hh = V1 and S_vv = [rho V1 + sqrt(1 - rho^2) V2] exp(j phi_DP) /
-    sqrt(Z_dr). Each cell is weighted by the two-way H or V pattern integrated over its
-    azimuth extent and all elevations (the truth is one sweep, taken as uniform in elevation),
-    and each gate sums the cells around it with the waveform's range weighting. Powers come
-    from the radar equation, so a uniform field of Z dBZ gives back Z through the calibration
-    output. Each beam draws from its own random stream.
+    ensemble with a Gaussian Doppler spectrum (mean velocity, spectrum width), and H and V
+    returns S_hh = V1, S_vv = [rho V1 + sqrt(1 - rho^2) V2] exp(j phi_DP) / sqrt(Z_dr). Each
+    cell is weighted by the two-way H or V pattern integrated over its azimuth extent and all
+    elevations (the truth is one sweep, taken as uniform in elevation), and each gate sums the
+    cells around it with the waveform's range weighting. Powers come from the radar equation,
+    so a uniform field of Z dBZ gives back Z through the calibration output. The levels
+    (``method``), fastest first:
+
+    - ``expected``: no random draw. The echo's expected correlations (lag 0 and 1 of H and V,
+      lag-0 H-V) through the beam and range weighting; the I/Q cube has no pulses and the
+      pulse-pair processor estimates from ``echo_correlations``: the smoothing error alone.
+    - ``combined``: each gate's series drawn at once from the pattern- and range-weighted sum
+      of its cells' spectra, a 2 x 2 H-V matrix per frequency bin of a 2M circulant
+      embedding (exact in distribution for a sum of independent Gaussian processes); cells
+      too narrow for the embedding are drawn per cell and added.
+    - ``covariance``: per cell, paper eq. 13-18 (Cholesky colouring; one factor per distinct
+      width).
+    - ``monte_carlo``: per cell, ``drops_per_cell`` moving drops (paper eq. 5-12).
+
+    Each beam draws from its own random streams (H and V apart). A truth without ZDR, RHOHV
+    and PHIDP (single polarisation), or a run that asks for none of them, skips the V channel.
 
     Inputs
     ------
@@ -252,9 +449,12 @@ class WeatherChannel(Block):
     Outputs
     -------
     iq : iq
-        Noise-free echo voltages, beam x range x pulse x polarisation, sqrt(W).
+        Noise-free echo voltages, beam x range x pulse x polarisation, sqrt(W); no pulses at
+        the ``expected`` level.
     signal_power : signal_power
         Expected echo power per gate (W), noise-free.
+    echo_correlations : echo_correlations
+        Expected lag-0 and lag-1 correlations of H and V and the lag-0 H-V cross-correlation.
     calibration : calibration
         Radar constant per beam and polarisation, and the gate ranges. It is the boresight
         (broadside) constant for every beam: scan loss and the H/V mismatch of a steered array
@@ -269,6 +469,7 @@ class WeatherChannel(Block):
 
     iq = Output(IQ, doc="echo voltages at the matched-filter output")
     signal_power = Output(SIGNAL_POWER, doc="expected echo power per gate")
+    echo_correlations = Output(ECHO_CORRELATIONS, doc="expected echo correlations per gate")
     calibration = Output(CALIBRATION, doc="radar constant for power -> dBZ")
 
     frequency_hz = Param(2.8e9, units="Hz", min=1e8, max=1e11, doc="carrier frequency")
@@ -277,8 +478,8 @@ class WeatherChannel(Block):
     method = Param(
         "covariance",
         type="str",
-        choices=("covariance", "monte_carlo"),
-        doc="time series: covariance (paper eq. 13-18) or monte_carlo (eq. 5-12, drops)",
+        choices=METHODS,
+        doc="fidelity level: expected, combined, covariance (eq. 13-18), monte_carlo (eq. 5-12)",
     )
     drops_per_cell = Param(
         256, type="int", min=1, max=100_000, doc="drops per truth cell (monte_carlo only)"
@@ -288,7 +489,25 @@ class WeatherChannel(Block):
         units="dB",
         min=-200.0,
         max=0.0,
-        doc="ignore truth radials whose two-way weight is below this level",
+        doc="ignore truth radials whose two-way weight is below this level (from the peak)",
+    )
+    precision = Param(
+        "float32",
+        type="str",
+        choices=("float32", "float64"),
+        doc="working precision of the random draws and sums",
+    )
+
+    # Fastest first, most faithful last; ``pasim tradeoff`` runs them all. -40 dB keeps the
+    # main lobe and first sidelobes of a -32 dB antenna and drops the far ones.
+    fidelity_ladder = (
+        ("expected", {"method": "expected", "support_db": -100.0, "precision": "float64"}),
+        ("combined-40dB", {"method": "combined", "support_db": -40.0, "precision": "float32"}),
+        ("combined", {"method": "combined", "support_db": -100.0, "precision": "float32"}),
+        ("combined-f64", {"method": "combined", "support_db": -100.0, "precision": "float64"}),
+        ("covariance", {"method": "covariance", "support_db": -100.0, "precision": "float32"}),
+        ("covariance-f64", {"method": "covariance", "support_db": -100.0, "precision": "float64"}),
+        ("monte_carlo", {"method": "monte_carlo", "support_db": -100.0, "precision": "float32"}),
     )
 
     transient = ("_prepared",)
@@ -296,34 +515,11 @@ class WeatherChannel(Block):
     def setup(self) -> None:
         self._prepared: tuple[Any, Any] | None = None
 
-    def _prepare(
-        self, truth: xr.Dataset, pad: int, k0: float, prt: float, lam: float, pulses: int
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, CellModel]:
-        """Per-cell powers and moments, padded in range with the edge gates."""
-
-        def padded(a: np.ndarray) -> np.ndarray:
-            return np.pad(a, ((0, 0), (pad, pad)), mode="edge")
-
-        rng_m = truth["range"].values
-        r2 = padded(np.broadcast_to(rng_m**2, truth["DBZH"].shape))
-        dbz = padded(truth["DBZH"].values)
-        # A gate at zero range (some legacy files start there) holds no echo volume.
-        echo = np.isfinite(dbz) & (r2 > 0)
-        # W per (sr m) before pattern and range weighting.
-        s_h = np.where(
-            echo, k0 * 10 ** (np.nan_to_num(dbz, nan=-999.0) / 10) / np.where(echo, r2, 1.0), 0.0
-        )
-        field = {k: padded(_filled(truth, k, np.isfinite(truth["DBZH"].values))) for k in FILL}
-        zdr = 10 ** (np.clip(field["ZDR"], -8, 8) / 10)
-        rho = np.clip(field["RHOHV"], 0.0, 1.0)
-        cells = CellModel(
-            self.p["method"], field, rho, echo, prt, lam, pulses, self.p["drops_per_cell"]
-        )
-        return s_h, s_h / zdr, echo, cells
-
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         truth, beams = inputs["truth"], inputs["beams"]
         pattern, response = inputs["pattern"], inputs["range_response"]
+        method = self.p["method"]
+        dtype = np.float32 if self.p["precision"] == "float32" else np.float64
         lam = SPEED_OF_LIGHT / self.p["frequency_hz"]
         prt = float(beams["prt"].values[0])
         pulses = int(beams["pulses"].values)
@@ -331,6 +527,7 @@ class WeatherChannel(Block):
         gate_m = float(truth.attrs["gate_width_m"])
         width_deg = float(truth.attrs["radial_width_deg"])
         az_truth = truth["azimuth"].values
+        need_v = all(k in truth for k in POLARIMETRIC_FIELDS) and chunk.wants(*POLARIMETRIC_FIELDS)
 
         gain = 10 ** (pattern.attrs["gain_db"] / 10)
         k0 = (
@@ -343,26 +540,26 @@ class WeatherChannel(Block):
             / ((4 * np.pi) ** 3 * lam**4 * 10 ** (self.p["loss_db"] / 10))
         )
         k_off, r_k = range_weights(response, gate_m)
-
-        # The truth is padded in range with its edge gates (the weather is taken to go on),
-        # so the first and last gates see neighbours like every other gate.
         pad = int(np.max(np.abs(k_off)))
         n_b, n_g = beams.sizes["beam"], rng_m.size
 
         # What depends only on the truth is prepared once and reused by every chunk (and, with
         # threads, by every thread): it is a pure function of the inputs, memoised.
-        key = (id(truth), pad, k0, prt, lam, pulses)
+        key = (id(truth), pad, k0, prt, lam, pulses, method, dtype)
         if self._prepared is None or self._prepared[0] != key:
-            self._prepared = (key, self._prepare(truth, pad, k0, prt, lam, pulses))
-        s_h, s_v, echo, cells = self._prepared[1]
+            cells = TruthCells(
+                truth, pad, k0, prt, lam, pulses, method, self.p["drops_per_cell"], dtype
+            )
+            self._prepared = (key, cells)
+        cells = self._prepared[1]
 
         d_az = pattern["azimuth_offset_deg"].values
         d_el = pattern["elevation_offset_deg"].values
         support = max(abs(d_az[0]), abs(d_az[-1])) + width_deg / 2
-        iq = np.zeros((n_b, n_g, pulses, 2), np.complex64)
-        power = np.zeros((n_b, n_g, 2), np.float64)
+        cdtype = np.complex64 if dtype == np.float32 else np.complex128
+        iq = np.zeros((n_b, n_g, 0 if method == "expected" else pulses, 2), cdtype)
+        corr = np.zeros((n_b, n_g, len(CORRELATION_PRODUCTS)), np.complex128)
         for i, beam in enumerate(chunk.beams):
-            gen = chunk.rng(int(beam))
             az_b = float(beams["azimuth"].values[i])
             el_b = float(beams["elevation"].values[i])
             delta = circular_difference(az_truth, az_b, 360.0)
@@ -371,22 +568,18 @@ class WeatherChannel(Block):
             omega = cell_solid_angles(profile, d_az, delta[near], width_deg)
             keep = omega.max(axis=0) >= omega.max() * 10 ** (self.p["support_db"] / 10)
             near, omega = near[keep], omega[:, keep]
-            cell_power = np.stack([omega[0] @ s_h[near], omega[1] @ s_v[near]])
-            # Cells ordered by gate, then radial, so that each gate's sum is one segment.
-            gg, jj = np.nonzero(echo[near].T)
-            volts = np.zeros((2, n_g + 2 * pad, pulses), np.complex64)
-            if gg.size:
-                rows = near[jj]
-                h, v = cells.draw(rows, gg, gen)
-                a_h = np.sqrt(s_h[rows, gg] * omega[0, jj]).astype(np.float32)[:, None]
-                a_v = np.sqrt(s_v[rows, gg] * omega[1, jj]).astype(np.float32)[:, None]
-                starts = np.flatnonzero(np.diff(gg, prepend=-1))
-                volts[0, gg[starts]] = np.add.reduceat(a_h * h, starts, axis=0)
-                volts[1, gg[starts]] = np.add.reduceat(a_v * v, starts, axis=0)
-            for k, rk in zip(k_off, r_k, strict=True):
-                window = slice(pad + k, pad + k + n_g)
-                iq[i] += np.moveaxis(np.sqrt(rk) * volts[:, window], 0, -1)
-                power[i] += rk * cell_power[:, window].T
+            corr[i] = range_sum(self._expected(cells, near, omega), k_off, r_k, pad, n_g)
+            if method == "expected" or near.size == 0:
+                continue
+            gen_h, gen_v = chunk.rng(int(beam)), chunk.rng(int(beam), 1)
+            # Polarisation, gate, pulse: each channel's series contiguous while drawing.
+            volts = np.zeros((2, n_g, pulses), cdtype)
+            draw = (cells, near, omega, k_off, r_k, pad, gen_h, gen_v, need_v)
+            if method == "combined":
+                self._combined(volts, *draw)
+                self._tones(volts, *draw)
+            self._per_cell(volts, *draw)
+            iq[i] = volts.transpose(1, 2, 0)
 
         omega_bs = np.array([pattern.attrs[f"two_way_solid_angle_sr_{p}"] for p in POLARIZATIONS])
         constant_db = 10 * np.log10(k0 * omega_bs * r_k.sum())
@@ -398,9 +591,173 @@ class WeatherChannel(Block):
                 )
             },
             coords={"range": ("range", rng_m), "polarization": list(POLARIZATIONS)},
-            attrs={"wavelength_m": lam, "prt_s": prt},
+            attrs={
+                "wavelength_m": lam,
+                "prt_s": prt,
+                "dual_polarization": int(all(k in truth for k in POLARIMETRIC_FIELDS)),
+            },
         )
-        return {"iq": iq, "signal_power": power.astype(np.float32), "calibration": calibration}
+        power = corr[..., :2].real.astype(np.float32)
+        return {
+            "iq": iq.astype(np.complex64, copy=False),
+            "signal_power": power,
+            "echo_correlations": corr,
+            "calibration": calibration,
+        }
+
+    @staticmethod
+    def _expected(cells: TruthCells, near: np.ndarray, omega: np.ndarray) -> np.ndarray:
+        """Expected correlations per padded truth gate (before range weighting), gate x 5."""
+        w_h = omega[0] @ cells.s_h[near]
+        w_v = omega[1] @ cells.s_v[near]
+        r1_h = omega[0] @ cells.r1_h[near]
+        r1_v = omega[1] @ cells.r1_v[near]
+        r0_hv = np.sqrt(omega[0] * omega[1]) @ cells.cross[near]
+        return np.stack([w_h, w_v, r1_h, r1_v, r0_hv], axis=-1)
+
+    @staticmethod
+    def _per_cell(
+        out: np.ndarray,
+        cells: TruthCells,
+        near: np.ndarray,
+        omega: np.ndarray,
+        k_off: np.ndarray,
+        r_k: np.ndarray,
+        pad: int,
+        gen_h: np.random.Generator,
+        gen_v: np.random.Generator,
+        need_v: bool,
+    ) -> None:
+        """Add the per-cell draws (covariance, monte_carlo, or combined's narrow cells)."""
+        if cells.per_cell is None or cells.model is None:
+            return
+        # Cells ordered by gate, then radial, so that each gate's sum is one segment.
+        gg, jj = np.nonzero(cells.per_cell[near].T)
+        if not gg.size:
+            return
+        n_g, pulses = out.shape[1], out.shape[2]
+        rows = near[jj]
+        h, v = cells.model.draw(rows, gg, gen_h, gen_v, need_v)
+        volts = np.zeros((2, n_g + 2 * pad, pulses), out.dtype)
+        starts = np.flatnonzero(np.diff(gg, prepend=-1))
+        a_h = np.sqrt(cells.s_h[rows, gg] * omega[0, jj]).astype(cells.dtype)[:, None]
+        volts[0, gg[starts]] = np.add.reduceat(a_h * h, starts, axis=0)
+        if v is not None:
+            a_v = np.sqrt(cells.s_v[rows, gg] * omega[1, jj]).astype(cells.dtype)[:, None]
+            volts[1, gg[starts]] = np.add.reduceat(a_v * v, starts, axis=0)
+        out += range_sum(volts.transpose(1, 0, 2), k_off, np.sqrt(r_k), pad, n_g).transpose(1, 0, 2)
+
+    @staticmethod
+    def _combined(
+        out: np.ndarray,
+        cells: TruthCells,
+        near: np.ndarray,
+        omega: np.ndarray,
+        k_off: np.ndarray,
+        r_k: np.ndarray,
+        pad: int,
+        gen_h: np.random.Generator,
+        gen_v: np.random.Generator,
+        need_v: bool,
+    ) -> None:
+        """Add each gate's series drawn from its combined spectral matrix (circulant embedding)."""
+        n_g, pulses = out.shape[1], out.shape[2]
+        dtype = cells.dtype
+        n = 2 * pulses
+        wide = cells.wide[near]
+        gsel = np.flatnonzero(wide.any(axis=0))
+        if not gsel.size:
+            return
+        # Powers are scaled to order one, so float32 keeps 100 dB of dynamic range without
+        # subnormals; the scale goes back on the voltages at the end.
+        w_h = omega[0][:, None] * np.where(wide, cells.s_h[near], 0.0)
+        scale = float(w_h.max()) or 1.0
+        products = [w_h / scale]
+        if need_v:
+            products.append(omega[1][:, None] * np.where(wide, cells.s_v[near], 0.0) / scale)
+            x = np.sqrt(omega[0] * omega[1])[:, None] * np.where(wide, cells.cross[near], 0) / scale
+            products += [x.real, x.imag]
+        weights = np.stack(products)[:, :, gsel].transpose(2, 0, 1).astype(dtype)  # g x P x J
+        code = cells.code[near][:, gsel].T  # g x J
+        combined = np.zeros((n_g + 2 * pad, len(products), n), dtype)
+        # Gates in blocks so the gathered spectra (gates x radials x N) stay a few tens of MB.
+        step = max(1, 4_000_000 // (near.size * n))
+        for a in range(0, gsel.size, step):
+            b = min(gsel.size, a + step)
+            combined[gsel[a:b]] = weights[a:b] @ cells.spectra[code[a:b]]
+        # Only output gates that some echo gate reaches through the range weighting.
+        lo, hi = max(0, gsel[0] - 2 * pad), min(n_g, gsel[-1] + 1)
+        s = range_sum(combined[lo:], k_off, r_k, pad, hi - lo)  # gate x P x N
+        gates = lo + np.flatnonzero(s[:, 0].max(axis=1) > 0)
+        if not gates.size:
+            return
+        s = s[gates - lo]
+        s_hh = np.maximum(s[:, 0], 0)
+        l11 = np.sqrt(s_hh)
+        z1 = _complex_normal(gen_h, s_hh.shape, dtype)
+        # sqrt(N) ifft(.)[:M]: samples with covariance c[m - n] (see embedded_spectra).
+        gain = dtype(np.sqrt(scale * n))
+        h = scipy.fft.ifft(l11 * z1, axis=-1, overwrite_x=True)[:, :pulses]
+        out[0, gates] += gain * h
+        if not need_v:
+            return
+        inv = np.divide(1, l11, out=np.zeros_like(l11), where=l11 > 0)
+        l21 = (s[:, 2] * inv) + 1j * (s[:, 3] * inv)
+        l22 = np.sqrt(np.maximum(np.maximum(s[:, 1], 0) - (l21.real**2 + l21.imag**2), 0))
+        z2 = _complex_normal(gen_v, s_hh.shape, dtype)
+        v = scipy.fft.ifft(l21 * z1 + l22 * z2, axis=-1, overwrite_x=True)[:, :pulses]
+        out[1, gates] += gain * v
+
+    @staticmethod
+    def _tones(
+        out: np.ndarray,
+        cells: TruthCells,
+        near: np.ndarray,
+        omega: np.ndarray,
+        k_off: np.ndarray,
+        r_k: np.ndarray,
+        pad: int,
+        gen_h: np.random.Generator,
+        gen_v: np.random.Generator,
+        need_v: bool,
+    ) -> None:
+        """Add the zero-width cells: one random tone per output gate and velocity (exact)."""
+        jj, gg = np.nonzero(cells.tone[near])
+        if not jj.size:
+            return
+        n_g = out.shape[1]
+        rows = near[jj]
+        code = cells.tone_code[rows, gg]
+        w = [omega[0][jj] * cells.s_h[rows, gg]]
+        if need_v:
+            x = np.sqrt(omega[0][jj] * omega[1][jj]) * cells.cross[rows, gg]
+            w += [omega[1][jj] * cells.s_v[rows, gg], x.real, x.imag]
+        # Each cell reaches output gate g = gate - pad - k with weight r_k.
+        gate = np.concatenate([gg - pad - k for k in k_off])
+        keys = np.concatenate([code] * len(k_off))
+        r = np.repeat(r_k, gg.size)
+        ok = (gate >= 0) & (gate < n_g)
+        n_codes = cells.tone_velocities.size
+        uniq, inv = np.unique((gate * n_codes + keys)[ok], return_inverse=True)
+        tot = [np.bincount(inv, weights=(r * np.tile(c, len(k_off)))[ok]) for c in w]
+        g_u, c_u = uniq // n_codes, uniq % n_codes
+        z1 = _complex_normal(gen_h, (uniq.size,), np.float64)
+        a_h = np.sqrt(tot[0]) * z1
+        np.add.at(out[0], g_u, (a_h[:, None] * cells.tones[c_u]).astype(out.dtype))
+        if need_v:
+            inv_h = np.divide(1, np.sqrt(tot[0]), out=np.zeros_like(tot[0]), where=tot[0] > 0)
+            l21 = (tot[2] + 1j * tot[3]) * inv_h
+            l22 = np.sqrt(np.maximum(tot[1] - np.abs(l21) ** 2, 0))
+            a_v = l21 * z1 + l22 * _complex_normal(gen_v, (uniq.size,), np.float64)
+            np.add.at(out[1], g_u, (a_v[:, None] * cells.tones[c_u]).astype(out.dtype))
+
+
+def _complex_normal(gen: np.random.Generator, shape: tuple[int, ...], dtype: type) -> np.ndarray:
+    """Circular complex Gaussian deviates with E|z|^2 = 1."""
+    # Real and imaginary parts drawn side by side and viewed as complex: no copies.
+    w = gen.standard_normal((*shape[:-1], 2 * shape[-1]), dtype=dtype)
+    w *= dtype(np.sqrt(0.5))
+    return w.view(np.complex64 if dtype == np.float32 else np.complex128)
 
 
 def _filled(truth: xr.Dataset, name: str, echo: np.ndarray) -> np.ndarray:

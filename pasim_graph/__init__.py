@@ -4,7 +4,7 @@ The engine (this package) knows blocks, ports, graphs, validation, plugins and e
 radar physics lives in the block library (``pasim_blocks``) and in plugin packages.
 """
 
-from .block import Block, Chunk
+from .block import Block, Chunk, RunNote
 from .graph import Graph, GraphError, load, validate
 from .ports import BEAM_DIM, DATASET, Input, Output, Param, PortType
 
@@ -21,6 +21,7 @@ __all__ = [
     "Output",
     "Param",
     "PortType",
+    "RunNote",
     "__version__",
     "load",
     "validate",

@@ -12,6 +12,15 @@ import numpy as np
 from .ports import Input, Output, Param
 
 
+class RunNote(UserWarning):
+    """Something a user should know about a run that is not an error.
+
+    Blocks raise it with ``warnings.warn(message, RunNote)`` (e.g. a truth without
+    polarimetric fields runs as single polarisation); the command line prints each one once as
+    ``note: ...``.
+    """
+
+
 @dataclass(frozen=True)
 class Chunk:
     """One chunk of beams as handed to :meth:`Block.process`.
@@ -27,7 +36,8 @@ class Chunk:
     resource : object
         What the block's :meth:`Block.load` returned (the executor did the I/O).
     options : mapping
-        Run options a block may read (``save_iq``).
+        Run options a block may read (``save_iq``; ``fields``: the output fields asked for,
+        None for all; see :meth:`wants`).
     """
 
     beams: np.ndarray
@@ -36,14 +46,27 @@ class Chunk:
     resource: Any = None
     options: Mapping[str, Any] = field(default_factory=dict)
 
-    def rng(self, beam: int) -> np.random.Generator:
+    def rng(self, beam: int, *stream: int) -> np.random.Generator:
         """Random generator for one beam, from the run seed, the block name and the beam index.
 
         Streams are per beam so that the numbers do not depend on how beams are chunked or on
-        which worker runs them.
+        which worker runs them. Extra integers select independent sub-streams, so that a part
+        of the work can be skipped without changing the numbers of the rest (a block that
+        draws H from ``rng(beam)`` and V from ``rng(beam, 1)`` gives the same H when it is
+        asked for H only).
         """
         key = zlib.crc32(self.block_name.encode())
-        return np.random.default_rng(np.random.SeedSequence([self.seed, key, int(beam)]))
+        entropy = [self.seed, key, int(beam), *(int(s) for s in stream)]
+        return np.random.default_rng(np.random.SeedSequence(entropy))
+
+    def wants(self, *fields: str) -> bool:
+        """True when the run asked for any of ``fields`` (or for every field).
+
+        Blocks use it to skip work nobody will read: ``--outputs DBZH`` makes the weather
+        channel skip the V channel and the processor skip the Doppler moments.
+        """
+        asked = self.options.get("fields")
+        return asked is None or any(f in asked for f in fields)
 
 
 class Block:
@@ -66,6 +89,10 @@ class Block:
     beam_source: ClassVar[bool] = False
     #: Roles the command line can address: ``"truth"`` (``--truth``), ``"scan"`` (``--sector``).
     role: ClassVar[str] = ""
+
+    #: Settings that trade speed for accuracy, as (label, parameter values) pairs, fastest
+    #: first and most faithful last. ``pasim tradeoff`` runs a graph at each of them.
+    fidelity_ladder: ClassVar[tuple[tuple[str, dict[str, Any]], ...]] = ()
 
     #: Attributes that only memoise derived data: dropped when a block is pickled (sent to a
     #: worker), and rebuilt there on first use.
@@ -173,6 +200,7 @@ class Block:
             "description": (cls.__doc__ or "").strip(),
             "role": cls.role,
             "beam_source": cls.beam_source,
+            "fidelity_ladder": [{"label": k, "params": dict(v)} for k, v in cls.fidelity_ladder],
             "inputs": [p.to_json() for p in cls.inputs.values()],
             "outputs": [p.to_json() for p in cls.outputs.values()],
             "params": [p.to_json() for p in cls.params.values()],

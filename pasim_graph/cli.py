@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from . import __version__, registry
+from .block import RunNote
 from .graph import Graph, GraphError, parse_overrides, validate
 from .graphfile import Problem, read
 
@@ -27,6 +28,11 @@ class UserError(Exception):
 
 
 def _graph(args: argparse.Namespace) -> Graph:
+    return _graph_and_overrides(args)[0]
+
+
+def _graph_and_overrides(args: argparse.Namespace) -> tuple[Graph, dict[str, Any]]:
+    """The validated graph and the overrides (``--set``, ``--truth``, ``--sector``) it got."""
     spec = read(args.graph)
     overrides, bad = parse_overrides(getattr(args, "set", None) or [])
     problems = [Problem(spec.file, 0, "", f"--set {b}", "expected BLOCK.PARAM=VALUE") for b in bad]
@@ -79,7 +85,7 @@ def _graph(args: argparse.Namespace) -> Graph:
         raise GraphError(exc.problems + problems) from None
     if problems:
         raise GraphError(problems)
-    return graph
+    return graph, overrides
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
@@ -131,7 +137,12 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise UserError(f"--chunk must be at least 1 beam, found {args.chunk}")
     if args.workers is not None and args.workers < 1:
         raise UserError(f"--workers must be at least 1, found {args.workers}")
-    options = RunOptions(seed=args.seed, chunk_beams=args.chunk, save_iq=args.save_iq)
+    options = RunOptions(
+        seed=args.seed,
+        chunk_beams=args.chunk,
+        save_iq=args.save_iq,
+        fields=_fields(args.outputs, graph),
+    )
     attrs = {
         "title": "PASIM-graph simulated radar volume",
         "Conventions": "Cf/Radial",
@@ -180,6 +191,51 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _fields(text: str | None, graph: Graph) -> tuple[str, ...] | None:
+    """The ``--outputs`` list, checked against the fields the graph's stored outputs declare."""
+    if text is None:
+        return None
+    asked = tuple(f.strip() for f in text.split(",") if f.strip())
+    known: list[str] = []
+    for cls in graph.classes.values():
+        for port in cls.outputs.values():
+            if port.store == "moments":
+                known += [f for f in port.fields if f not in known]
+    unknown = [f for f in asked if f not in known]
+    if not asked or unknown:
+        raise UserError(
+            f"--outputs {text!r}: "
+            + (f"unknown field(s) {', '.join(unknown)}; " if unknown else "no field given; ")
+            + f"this graph produces {', '.join(known) or 'no declared fields'}"
+        )
+    return asked
+
+
+def cmd_tradeoff(args: argparse.Namespace) -> int:
+    from .tradeoff import TradeoffError, format_table, ladder, tradeoff
+
+    graph, overrides = _graph_and_overrides(args)
+    labels = [x.strip() for x in args.levels.split(",")] if args.levels else None
+    try:
+        keys = list(dict.fromkeys(k for r in ladder(graph) for k in r.params))
+        rows = tradeoff(
+            graph,
+            str(args.graph),
+            overrides,
+            seed=args.seed,
+            chunk=args.chunk,
+            labels=labels,
+            log=lambda s: print(s, file=sys.stderr),
+        )
+    except TradeoffError as exc:
+        raise UserError(f"{args.graph}: {exc}") from None
+    if args.json:
+        print(json.dumps(_json_safe(rows), indent=1))
+    else:
+        print(format_table(rows, keys))
+    return 0
+
+
 def cmd_score(args: argparse.Namespace) -> int:
     from .store import IncompleteStoreError, open_volume, summarize
 
@@ -205,6 +261,8 @@ def _json_safe(x: Any) -> Any:
     """NaN (no estimate, nothing scored) becomes null: JSON has no NaN."""
     if isinstance(x, dict):
         return {k: _json_safe(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_json_safe(v) for v in x]
     return None if isinstance(x, float) and math.isnan(x) else x
 
 
@@ -267,6 +325,11 @@ def parser() -> argparse.ArgumentParser:
         help="beams per chunk (does not change the results)",
     )
     run.add_argument("--save-iq", action="store_true", help="also store the H and V I/Q cubes")
+    run.add_argument(
+        "--outputs",
+        metavar="FIELD[,FIELD...]",
+        help="compute and store only these fields (e.g. DBZH); blocks skip the rest",
+    )
     run.add_argument("--out", required=True, help="output store (.zarr)")
     run.add_argument("--overwrite", action="store_true", help="replace an existing store")
     run.add_argument(
@@ -303,6 +366,19 @@ def parser() -> argparse.ArgumentParser:
     blk.add_argument("--json", action="store_true")
     blk.set_defaults(func=cmd_blocks)
 
+    tr = sub.add_parser(
+        "tradeoff", help="run a graph at every fidelity level: time, memory and error of each"
+    )
+    tr.add_argument("graph")
+    tr.add_argument("--truth", help="truth radar file (NEXRAD Level-II)")
+    tr.add_argument("--sector", help="azimuth sector AZ0:AZ1 in degrees, clockwise")
+    tr.add_argument("--set", action="append", metavar="BLOCK.PARAM=VALUE")
+    tr.add_argument("--seed", type=int, default=0)
+    tr.add_argument("--chunk", type=int, default=8, metavar="BEAMS")
+    tr.add_argument("--levels", metavar="LEVEL[,LEVEL...]", help="run only these levels")
+    tr.add_argument("--json", action="store_true", help="print a list of rows as JSON")
+    tr.set_defaults(func=cmd_tradeoff)
+
     sc = sub.add_parser("score", help="print the error statistics stored in a run")
     sc.add_argument("store")
     sc.add_argument("--json", action="store_true")
@@ -310,10 +386,20 @@ def parser() -> argparse.ArgumentParser:
     return ap
 
 
+def _show_warning(
+    message: Warning | str, category: type[Warning], *args: Any, **kwargs: Any
+) -> None:
+    # Notes and plugin warnings are for users: one line each, no source location.
+    label = "note" if issubclass(category, RunNote) else "warning"
+    print(f"{label}: {message}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     with warnings.catch_warnings():
         warnings.simplefilter("default", registry.PluginWarning)
+        warnings.simplefilter("default", RunNote)
+        warnings.showwarning = _show_warning
         try:
             return int(args.func(args))
         except GraphError as exc:

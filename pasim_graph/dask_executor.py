@@ -64,6 +64,7 @@ def run_key(graph: Graph, options: RunOptions) -> str:
             "seed": options.seed,
             "chunk_beams": options.chunk_beams,
             "products": sorted(options.wanted),
+            "fields": sorted(options.fields) if options.fields is not None else None,
         },
         sort_keys=True,
     )

@@ -8,6 +8,8 @@ run at all.
 
 from __future__ import annotations
 
+import threading
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
@@ -46,6 +48,8 @@ class RunOptions:
     chunk_beams: int = 8
     save_iq: bool = False
     products: tuple[str, ...] = ("moments",)
+    #: Output fields asked for (e.g. ``("DBZH",)``); None asks for every field.
+    fields: tuple[str, ...] | None = None
 
     @property
     def wanted(self) -> set[str]:
@@ -108,6 +112,19 @@ class LocalExecutor:
     def __init__(self, graph: Graph, options: RunOptions | None = None):
         self.options = options or RunOptions()
         self.plan = plan(graph, self.options)
+        #: Seconds each block spent in process() in this process, summed over chunks.
+        self.block_seconds: dict[str, float] = {}
+        self._lock = threading.Lock()
+
+    def __getstate__(self) -> dict[str, Any]:
+        # Sent to dask workers: a lock does not pickle, and each process times its own blocks.
+        state = self.__dict__.copy()
+        del state["_lock"]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
 
     def load(self) -> None:
         """Do every block's I/O once (reading the truth file, for example)."""
@@ -126,12 +143,17 @@ class LocalExecutor:
             seed=self.options.seed,
             block_name=name,
             resource=p.resources.get(name),
-            options={"save_iq": self.options.save_iq},
+            options={"save_iq": self.options.save_iq, "fields": self.options.fields},
         )
+        t0 = time.perf_counter()
         try:
             out = block.process(inputs, chunk)
         except Exception as exc:
             raise BlockError(name, type(block).type_name, beams, exc) from exc
+        with self._lock:
+            self.block_seconds[name] = self.block_seconds.get(name, 0.0) + (
+                time.perf_counter() - t0
+            )
         for port in type(block).outputs:
             if port in out:
                 values[(name, port)] = out[port]

@@ -99,12 +99,15 @@ class Output:
     ``store`` names the run product this port feeds, when the executor should write it: the
     port then carries an ``xarray.Dataset`` whose variables go into the output volume.
     ``"moments"`` is always written, ``"iq"`` only when the run asks to save I/Q.
+    ``fields`` lists the variables such a Dataset can hold, so that a run can ask for some of
+    them (``pasim run --outputs DBZH``) and be checked before it starts.
     """
 
     type: PortType
     doc: str = ""
     store: str | None = None
     name: str = ""
+    fields: tuple[str, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -112,6 +115,7 @@ class Output:
             "type": self.type.to_json(),
             "doc": self.doc,
             "store": self.store,
+            "fields": list(self.fields),
         }
 
 
