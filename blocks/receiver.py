@@ -91,7 +91,8 @@ class Receiver(Block):
             signal = inputs["signal_power"][..., 0].astype(np.float64)
             fixed = signal / 10 ** (self.p["snr_db"] / 10)
             noise[:] = np.where(signal > 0, fixed, thermal)[..., None]
-        out = echo.copy()
+        # order="K" keeps the echo's memory layout (the weather channel's is channel-major).
+        out = echo.copy(order="K")
         scale = np.sqrt(noise / 2).astype(np.float32)
         # H and V noise from their own streams: asking for H only leaves H's numbers unchanged.
         channels = [0, 1] if chunk.wants(*POLARIMETRIC_FIELDS) else [0]

@@ -61,10 +61,11 @@ def range_weights(response: xr.Dataset, gate_width_m: float) -> tuple[np.ndarray
 
 def azimuth_profile(power: np.ndarray, d_el_deg: np.ndarray, elevation_deg: float) -> np.ndarray:
     """Two-way pattern integrated over elevation (rad), per polarisation and azimuth offset."""
-    cos_el = np.cos(np.deg2rad(elevation_deg + d_el_deg))[None, :, None]
+    cos_el = np.cos(np.deg2rad(elevation_deg + d_el_deg))
     step = np.deg2rad(d_el_deg[1] - d_el_deg[0])
     p = power.astype(np.float64)
-    return np.sum(p * p * cos_el, axis=1) * step
+    p *= p
+    return np.einsum("e,pea->pa", cos_el, p) * step
 
 
 def cell_solid_angles(
@@ -158,6 +159,31 @@ class FactorCache:
         return result
 
 
+def embedding_size(
+    width_ms: np.ndarray, prt_s: float, wavelength_m: float, pulses: int, dtype: type
+) -> int:
+    """Smallest even circulant size N <= 2M whose embedding reproduces lags 0..M-1.
+
+    A circulant of size N reproduces r(d) for d <= N/2 and gives r(N - d)* for larger d, so it
+    is exact up to the tail once |r| is negligible beyond lag L and N >= max(2L, M + L - 1).
+    Negligible means below the working precision (1e-7 for float32, 1e-15 for float64), so the
+    narrowest spectrum sets L and float64 keeps N = 2M for all but wide spectra.
+    """
+    tol = 1e-7 if dtype == np.float32 else 1e-15
+    a = np.pi * prt_s / wavelength_m
+    w = float(np.min(width_ms)) if width_ms.size else 0.0
+    if w <= 0:
+        return 2 * pulses
+    # exp(-8 (a w L)^2) < tol
+    lag = int(np.ceil(np.sqrt(-np.log(tol) / 8) / (a * w)))
+    n = max(2 * lag, pulses + lag - 1)
+    # A length with small prime factors: an FFT of 94 = 2 x 47 is three times slower than 96.
+    n = scipy.fft.next_fast_len(n + n % 2)
+    while n % 2:
+        n = scipy.fft.next_fast_len(n + 1)
+    return int(min(2 * pulses, n))
+
+
 def embedded_spectra(
     velocity_ms: np.ndarray,
     width_ms: np.ndarray,
@@ -165,27 +191,30 @@ def embedded_spectra(
     wavelength_m: float,
     pulses: int,
     dtype: type,
+    n: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Eigenvalues of the 2M circulant embedding of each cell's normalised autocorrelation.
+    """Eigenvalues of the circulant embedding of each cell's normalised autocorrelation.
 
-    r(l) = exp(-8 (pi w l T / lambda)^2) exp(-j 4 pi v l T / lambda), l = 0..M-1, is placed in
-    the first column of a Hermitian circulant of size N = 2M (c[M] = Re r(M), c[N-l] = r(l)*);
-    its top-left M x M block is the Toeplitz covariance of eq. 13, so drawing from the
-    circulant and keeping M samples is exact when every eigenvalue is non-negative. Returns the
-    eigenvalues (cells x N, real) and a flag per cell that is True when the embedding is not
-    positive semi-definite (spectra too narrow to decay by lag M: width 0, or a few tenths of a
-    m/s at long PRTs); such cells need the per-cell path.
+    r(l) = exp(-8 (pi w l T / lambda)^2) exp(-j 4 pi v l T / lambda) is placed in the first
+    column of a Hermitian circulant of size N (default 2M): c[l] = r(l) for l < N/2,
+    c[N/2] = Re r(N/2), c[N-l] = r(l)*. With N = 2M its top-left M x M block is the Toeplitz
+    covariance of eq. 13 exactly (see :func:`embedding_size` for smaller N), so drawing from
+    the circulant and keeping M samples is exact when every eigenvalue is non-negative.
+    Returns the eigenvalues (cells x N, real) and a flag per cell that is True when the
+    embedding is not positive semi-definite (spectra too narrow to decay: width 0, or a few
+    tenths of a m/s at long PRTs); such cells need their own path.
     """
-    n = 2 * pulses
-    lag = np.arange(pulses + 1, dtype=np.float64)
+    n = 2 * pulses if n is None else n
+    half = n // 2
+    lag = np.arange(half + 1, dtype=np.float64)
     a = np.pi * prt_s / wavelength_m
     r = np.exp(-8.0 * (a * width_ms[:, None] * lag) ** 2) * np.exp(
         -4j * a * velocity_ms[:, None] * lag
     )
     c = np.zeros((velocity_ms.size, n), np.complex128)
-    c[:, :pulses] = r[:, :pulses]
-    c[:, pulses] = r[:, pulses].real
-    c[:, pulses + 1 :] = np.conj(r[:, pulses - 1 : 0 : -1])
+    c[:, :half] = r[:, :half]
+    c[:, half] = r[:, half].real
+    c[:, half + 1 :] = np.conj(r[:, half - 1 : 0 : -1])
     lam = np.fft.fft(c, axis=1).real
     peak = lam.max(axis=1, keepdims=True)
     narrow = (lam.min(axis=1) < -1e-6 * peak[:, 0]) | (width_ms <= 0)
@@ -340,10 +369,18 @@ class TruthCells:
         rho = np.clip(field["RHOHV"], 0.0, 1.0)
         width = np.clip(field["WRADH"], 0.0, None)
         a = np.pi * prt_s / wavelength_m
-        lag1 = np.exp(-8.0 * (a * width) ** 2) * np.exp(-4j * a * field["VRADH"])
-        # Per-cell expected lag-1 correlations, before pattern and range weighting.
-        self.r1_h, self.r1_v = self.s_h * lag1, self.s_v * lag1
-        self.cross = np.sqrt(self.s_h * self.s_v) * rho * np.exp(1j * np.deg2rad(field["PHIDP"]))
+        # Per-cell expected lag-1 and H-V correlations, before pattern and range weighting;
+        # computed on echo cells only (the others are zero).
+        e = self.echo
+        lag1 = np.exp(-8.0 * (a * width[e]) ** 2) * _phasor(-4 * a * field["VRADH"][e])
+        self.r1_h = np.zeros(e.shape, np.complex128)
+        self.r1_v = np.zeros(e.shape, np.complex128)
+        self.cross = np.zeros(e.shape, np.complex128)
+        self.r1_h[e] = self.s_h[e] * lag1
+        self.r1_v[e] = self.s_v[e] * lag1
+        self.cross[e] = (
+            np.sqrt(self.s_h[e] * self.s_v[e]) * rho[e] * _phasor(np.deg2rad(field["PHIDP"][e]))
+        )
         self.pulses = pulses
         self.dtype = dtype
         # The per-cell draws of every level but `expected`: all echo cells for covariance and
@@ -375,12 +412,22 @@ class TruthCells:
         nyquist = wavelength_m / (4 * prt_s)
         v = np.round(np.mod(velocity + nyquist, 2 * nyquist) - nyquist, 2)
         w = np.round(width, 2)
-        pairs, codes = np.unique(
-            np.stack([v[self.echo], w[self.echo]], axis=1), axis=0, return_inverse=True
-        )
+        # One integer per (velocity, width) in 0.01 m/s steps: a 1-D unique is much faster.
+        iv = np.rint(v[self.echo] * 100).astype(np.int64)
+        iw = np.rint(w[self.echo] * 100).astype(np.int64)
+        keys, codes = np.unique(iv * 10_000_000 + iw, return_inverse=True)
+        pairs = np.stack([(keys // 10_000_000) / 100, (keys % 10_000_000) / 100], axis=1)
         lam, narrow = embedded_spectra(
             pairs[:, 0], pairs[:, 1], prt_s, wavelength_m, self.pulses, self.dtype
         )
+        # A smaller embedding when every spectrum drawn this way decays fast enough: fewer
+        # deviates and shorter FFTs for the same covariance to working precision.
+        n = embedding_size(pairs[~narrow, 1], prt_s, wavelength_m, self.pulses, self.dtype)
+        if n < 2 * self.pulses:
+            lam, small_narrow = embedded_spectra(
+                pairs[:, 0], pairs[:, 1], prt_s, wavelength_m, self.pulses, self.dtype, n
+            )
+            narrow |= small_narrow
         # One extra all-zero spectrum for cells without echo or drawn per cell.
         lam = np.concatenate([lam, np.zeros((1, lam.shape[1]), lam.dtype)])
         lam[np.flatnonzero(narrow)] = 0.0
@@ -557,7 +604,10 @@ class WeatherChannel(Block):
         d_el = pattern["elevation_offset_deg"].values
         support = max(abs(d_az[0]), abs(d_az[-1])) + width_deg / 2
         cdtype = np.complex64 if dtype == np.float32 else np.complex128
-        iq = np.zeros((n_b, n_g, 0 if method == "expected" else pulses, 2), cdtype)
+        _check_coverage(az_truth, width_deg, beams["azimuth"].values, support - width_deg / 2)
+        # Stored polarisation-major, handed on as a (beam, range, pulse, polarization) view:
+        # each channel's series stay contiguous for the draws and for the blocks downstream.
+        iq = np.zeros((n_b, 2, n_g, 0 if method == "expected" else pulses), cdtype)
         corr = np.zeros((n_b, n_g, len(CORRELATION_PRODUCTS)), np.complex128)
         for i, beam in enumerate(chunk.beams):
             az_b = float(beams["azimuth"].values[i])
@@ -572,14 +622,11 @@ class WeatherChannel(Block):
             if method == "expected" or near.size == 0:
                 continue
             gen_h, gen_v = chunk.rng(int(beam)), chunk.rng(int(beam), 1)
-            # Polarisation, gate, pulse: each channel's series contiguous while drawing.
-            volts = np.zeros((2, n_g, pulses), cdtype)
             draw = (cells, near, omega, k_off, r_k, pad, gen_h, gen_v, need_v)
             if method == "combined":
-                self._combined(volts, *draw)
-                self._tones(volts, *draw)
-            self._per_cell(volts, *draw)
-            iq[i] = volts.transpose(1, 2, 0)
+                self._combined(iq[i], *draw)
+                self._tones(iq[i], *draw)
+            self._per_cell(iq[i], *draw)
 
         omega_bs = np.array([pattern.attrs[f"two_way_solid_angle_sr_{p}"] for p in POLARIZATIONS])
         constant_db = 10 * np.log10(k0 * omega_bs * r_k.sum())
@@ -599,7 +646,7 @@ class WeatherChannel(Block):
         )
         power = corr[..., :2].real.astype(np.float32)
         return {
-            "iq": iq.astype(np.complex64, copy=False),
+            "iq": np.moveaxis(iq.astype(np.complex64, copy=False), 1, -1),
             "signal_power": power,
             "echo_correlations": corr,
             "calibration": calibration,
@@ -663,7 +710,7 @@ class WeatherChannel(Block):
         """Add each gate's series drawn from its combined spectral matrix (circulant embedding)."""
         n_g, pulses = out.shape[1], out.shape[2]
         dtype = cells.dtype
-        n = 2 * pulses
+        n = cells.spectra.shape[1]
         wide = cells.wide[near]
         gsel = np.flatnonzero(wide.any(axis=0))
         if not gsel.size:
@@ -692,21 +739,21 @@ class WeatherChannel(Block):
         if not gates.size:
             return
         s = s[gates - lo]
+        # sqrt(N) ifft(.)[:M] has covariance c[m - n] (see embedded_spectra); sqrt(N) and the
+        # power scale go on the factors before the FFT.
+        s *= dtype(scale * n)
         s_hh = np.maximum(s[:, 0], 0)
         l11 = np.sqrt(s_hh)
         z1 = _complex_normal(gen_h, s_hh.shape, dtype)
-        # sqrt(N) ifft(.)[:M]: samples with covariance c[m - n] (see embedded_spectra).
-        gain = dtype(np.sqrt(scale * n))
-        h = scipy.fft.ifft(l11 * z1, axis=-1, overwrite_x=True)[:, :pulses]
-        out[0, gates] += gain * h
+        # This level runs first on a zeroed beam: assign, the other paths add.
+        out[0, gates] = scipy.fft.ifft(l11 * z1, axis=-1, overwrite_x=True)[:, :pulses]
         if not need_v:
             return
         inv = np.divide(1, l11, out=np.zeros_like(l11), where=l11 > 0)
         l21 = (s[:, 2] * inv) + 1j * (s[:, 3] * inv)
         l22 = np.sqrt(np.maximum(np.maximum(s[:, 1], 0) - (l21.real**2 + l21.imag**2), 0))
         z2 = _complex_normal(gen_v, s_hh.shape, dtype)
-        v = scipy.fft.ifft(l21 * z1 + l22 * z2, axis=-1, overwrite_x=True)[:, :pulses]
-        out[1, gates] += gain * v
+        out[1, gates] = scipy.fft.ifft(l21 * z1 + l22 * z2, axis=-1, overwrite_x=True)[:, :pulses]
 
     @staticmethod
     def _tones(
@@ -750,6 +797,42 @@ class WeatherChannel(Block):
             l22 = np.sqrt(np.maximum(tot[1] - np.abs(l21) ** 2, 0))
             a_v = l21 * z1 + l22 * _complex_normal(gen_v, (uniq.size,), np.float64)
             np.add.at(out[1], g_u, (a_v[:, None] * cells.tones[c_u]).astype(out.dtype))
+
+
+def _check_coverage(
+    az_truth: np.ndarray, width_deg: float, az_beams: np.ndarray, support_deg: float
+) -> None:
+    """Refuse beams whose pattern reaches beyond a truth read for a sector only.
+
+    A truth read for a sector (``truth.azimuth_start_deg``) ends somewhere; a beam whose
+    pattern grid reaches past that end would silently miss the echo there.
+    """
+    az = np.sort(np.mod(az_truth, 360.0))
+    if az.size < 2:
+        return
+    gaps = np.diff(np.concatenate([az, [az[0] + 360.0]]))
+    k = int(np.argmax(gaps))
+    if gaps[k] <= 2.5 * width_deg:
+        return  # the whole circle
+    start = az[(k + 1) % az.size] - width_deg / 2
+    extent = 360.0 - gaps[k] + width_deg
+    off = np.mod(az_beams - support_deg - start, 360.0)
+    bad = off + 2 * support_deg > extent + 1e-6
+    if bad.any():
+        b = float(az_beams[np.flatnonzero(bad)[0]])
+        raise ValueError(
+            f"the truth covers azimuth {start % 360:.1f} to {(start + extent) % 360:.1f} deg, but "
+            f"the beam at {b:.1f} deg has a pattern support of +-{support_deg:g} deg; widen the "
+            "truth's margin_deg (or read the whole sweep)"
+        )
+
+
+def _phasor(phase: np.ndarray) -> np.ndarray:
+    """exp(j phase), from cos and sin (a complex exp of a real argument costs twice as much)."""
+    out = np.empty(phase.shape, np.complex128)
+    out.real = np.cos(phase)
+    out.imag = np.sin(phase)
+    return out
 
 
 def _complex_normal(gen: np.random.Generator, shape: tuple[int, ...], dtype: type) -> np.ndarray:

@@ -85,7 +85,31 @@ def _graph_and_overrides(args: argparse.Namespace) -> tuple[Graph, dict[str, Any
         raise GraphError(exc.problems + problems) from None
     if problems:
         raise GraphError(problems)
+    sector = _truth_sector(graph, roles, overrides)
+    if sector:
+        overrides |= sector
+        graph = validate(spec, overrides)
     return graph, overrides
+
+
+def _truth_sector(
+    graph: Graph, roles: dict[str, list[str]], overrides: dict[str, Any]
+) -> dict[str, Any]:
+    """Let a truth block that can read a sector read only the scan's (plus its margin).
+
+    Applies when there is one truth and one scan block, both declare ``azimuth_start_deg`` and
+    ``azimuth_stop_deg``, and the truth's sector is not set already.
+    """
+    keys = ("azimuth_start_deg", "azimuth_stop_deg")
+    truth, scan = roles.get("truth", []), roles.get("scan", [])
+    if len(truth) != 1 or len(scan) != 1:
+        return {}
+    t, s = truth[0], scan[0]
+    if not all(k in graph.classes[t].params and k in graph.classes[s].params for k in keys):
+        return {}
+    if any(graph.params[t].get(k) is not None for k in keys):
+        return {}
+    return {f"{t}.{k}": graph.params[s][k] for k in keys}
 
 
 def cmd_validate(args: argparse.Namespace) -> int:

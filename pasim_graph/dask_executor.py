@@ -228,12 +228,19 @@ class DaskExecutor:
     ) -> None:
         import dask
         from dask.diagnostics import ProgressBar
+        from threadpoolctl import threadpool_limits
 
         tasks = [
             dask.delayed(_run_and_write, pure=False)(self.local, static, starts[i], i, path, attrs)
             for i in todo
         ]
-        with ProgressBar() if self.progress else contextlib.nullcontext():
+        # Chunks already fill every core; BLAS threads inside each would oversubscribe them
+        # and spin (a tenfold slowdown of small matrix products was measured). Dask's
+        # distributed workers get the same limit from their nanny's environment.
+        with (
+            threadpool_limits(limits=1, user_api="blas"),
+            ProgressBar() if self.progress else contextlib.nullcontext(),
+        ):
             dask.compute(*tasks, scheduler="threads")
 
     def _connect(self) -> Any:

@@ -2,8 +2,9 @@
 
 A block declares its ladder (``Block.fidelity_ladder``: labelled parameter settings, fastest
 first, most faithful last). :func:`tradeoff` runs the graph once per rung on the same scene,
-seed and sector, each in a fresh process so that time and peak memory are the rung's own, and
-compares every rung's errors with the truth and with the most faithful rung that was run.
+seed and sector, each in a fresh process on one thread (BLAS included) so that time and peak
+memory are the rung's own, and compares every rung's errors with the truth and with the most
+faithful rung that was run.
 """
 
 from __future__ import annotations
@@ -75,8 +76,12 @@ def run_rung(graph_path: str, overrides: dict[str, Any], seed: int, chunk: int) 
 
 def _child(spec_file: str) -> None:
     """Entry of a rung's process: run it, save its errors, print its numbers as JSON."""
+    from threadpoolctl import threadpool_limits
+
     spec = json.loads(Path(spec_file).read_text())
-    out = run_rung(spec["graph"], spec["overrides"], spec["seed"], spec["chunk"])
+    # One thread, BLAS included: every level is timed on the same footing (per core).
+    with threadpool_limits(limits=1, user_api="blas"):
+        out = run_rung(spec["graph"], spec["overrides"], spec["seed"], spec["chunk"])
     arrays = {k: np.asarray(v.values, dtype=np.float64) for k, (v, _) in out["errors"].items()}
     np.savez(str(spec["errors_file"]), **arrays)  # type: ignore[arg-type]
     periods = {k: a.get("period") for k, (_, a) in out["errors"].items()}

@@ -8,26 +8,35 @@ tests of the cut selection and merge logic run on synthetic data everywhere.
 from __future__ import annotations
 
 import gzip
+import hashlib
 import os
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
-import xarray as xr
+from pasim_blocks import nexrad_io
 from pasim_blocks.nexrad_io import (
     FIELD_NAMES,
     TruthSweep,
     _assemble,
     _choose_cuts,
     _Cut,
+    _CutData,
     _drop_duplicate_radials,
     _load_volume_bytes,
+    _Moment,
+    _nearest_circular,
+    _read_moments,
+    _scan_volume,
     _sector_order,
+    _time_order,
     read_truth_sweep,
 )
 
 _SHARED_FILE = Path(__file__).parents[1].parent / "shared" / "data" / "KLBB20160601_150025_V06"
+# sha256 of KLBB20160601_150025_V06, from the data's README.
+_KLBB_SHA256 = "b5b8639605a0c88be1ed1f1941333304e559fcf31f8ca3c98aac1520c9896914"
 
 # Decoded values of Level-II codes 0 and 1 as xradar 0.12 reports them (see the README of
 # the data); PHIDP's are also given wrapped into [0, 360), where an unmasked one would land.
@@ -281,6 +290,9 @@ def test_gzip_wrapped_and_uncompressed_volumes_read_the_same(
     uncompressed = tmp_path / (truth_file.name + ".raw")
     uncompressed.write_bytes(plain)
     assert _load_volume_bytes(uncompressed) == plain
+    reference = _fields_digest(read_truth_sweep(truth_file, 0.5, (240.0, 250.0)))
+    for variant in (wrapped, uncompressed):
+        assert _fields_digest(read_truth_sweep(variant, 0.5, (240.0, 250.0))) == reference
 
 
 def test_truncated_volume_warns_about_incomplete_cut(truth_file: Path, tmp_path: Path) -> None:
@@ -291,6 +303,114 @@ def test_truncated_volume_warns_about_incomplete_cut(truth_file: Path, tmp_path:
         sweep = read_truth_sweep(cut_short)
     assert set(sweep.fields) == set(FIELD_NAMES)
     assert np.count_nonzero(np.isfinite(sweep.fields["VRADH"])) > 0
+
+
+# ---------------------------------------------------------- real volume: what is read
+
+
+def _fields_digest(sweep: TruthSweep) -> str:
+    h = hashlib.sha256()
+    for values in (sweep.azimuth_deg, sweep.range_m, *(sweep.fields[n] for n in FIELD_NAMES)):
+        h.update(np.ascontiguousarray(values).tobytes())
+    return h.hexdigest()
+
+
+@pytest.mark.parametrize(
+    ("elevation_deg", "sector_deg", "margin_deg", "digest"),
+    [
+        (0.5, None, 0.0, "785525c5829e77f584594d32daa40802322ac506e14f80912ff5ae0e5448ee6a"),
+        (
+            0.5,
+            (240.0, 330.0),
+            10.0,
+            "e5df99c965f504e91d16811bb61297d5d765a4a59a7f11df7c392934ff62120b",
+        ),
+        (2.4, None, 0.0, "9f839f0a88c0062bba7d4884d1a060d7463c9b5d5b822eef01b63a58f7d60299"),
+    ],
+)
+def test_same_bits_as_the_whole_volume_xradar_reader(
+    truth_file: Path, elevation_deg, sector_deg, margin_deg, digest
+) -> None:
+    """Digests of what the previous reader returned: it decompressed and parsed the whole
+    volume with xradar, then merged; this one stops after the cuts and decodes itself."""
+    if hashlib.sha256(truth_file.read_bytes()).hexdigest() != _KLBB_SHA256:
+        pytest.skip("digests are of KLBB20160601_150025_V06")
+    sweep = read_truth_sweep(truth_file, elevation_deg, sector_deg, margin_deg)
+    assert _fields_digest(sweep) == digest
+
+
+def test_codes_and_geometry_match_xradar(truth_file: Path) -> None:
+    """xradar decodes the same records independently: same codes, azimuths and ranges."""
+    xradar = pytest.importorskip("xradar")
+    cuts = _scan_volume(truth_file, 0.5).cuts
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tree = xradar.io.open_nexradlevel2_datatree(
+            str(truth_file), sweep=[0, 1], first_dim="time", mask_and_scale=False
+        )
+    for cut in cuts[:2]:
+        theirs = tree[f"sweep_{cut.index}"].to_dataset()
+        radials = _time_order(cut.radials)
+        ours = _read_moments(radials, radials[0], FIELD_NAMES)
+        assert set(ours) == set(theirs.data_vars) & set(FIELD_NAMES)
+        az = np.array([r.azimuth_deg for r in radials])
+        np.testing.assert_array_equal(az, theirs["azimuth"].to_numpy())
+        for name, moment in ours.items():
+            codes = theirs[name].to_numpy()
+            n = moment.codes.shape[1]
+            np.testing.assert_array_equal(moment.codes, codes[:, :n], err_msg=name)
+            assert not codes[:, n:].any(), name  # xradar pads shorter moments with code 0
+            gates = moment.first_gate_m + moment.gate_step_m * np.arange(n)
+            np.testing.assert_array_equal(gates, theirs["range"].to_numpy()[:n])
+            assert moment.scale_factor == theirs[name].attrs["scale_factor"], name
+            assert moment.add_offset == theirs[name].attrs["add_offset"], name
+
+
+def _count_records(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    taken: list[int] = []
+    records = nexrad_io._records
+
+    def counting(raw, path):
+        for record in records(raw, path):
+            taken.append(len(record))
+            yield record
+
+    monkeypatch.setattr(nexrad_io, "_records", counting)
+    return taken
+
+
+def test_only_the_records_up_to_the_wanted_cuts_are_decompressed(
+    truth_file: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    taken = _count_records(monkeypatch)
+    read_truth_sweep(truth_file, 19.5)  # the last cut: everything
+    everything = len(taken)
+    assert everything > 40
+    taken.clear()
+    read_truth_sweep(truth_file, 0.5)  # the first two cuts of eleven
+    assert 5 <= len(taken) <= everything // 3
+
+
+def test_a_sector_decodes_only_its_radials(
+    truth_file: Path, truth: TruthSweep, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    decoded: list[int] = []
+    read_moments = nexrad_io._read_moments
+
+    def counting(radials, reference, names):
+        decoded.append(len(radials))
+        return read_moments(radials, reference, names)
+
+    monkeypatch.setattr(nexrad_io, "_read_moments", counting)
+    sweep = read_truth_sweep(truth_file, 0.5, sector_deg=(240.0, 330.0), margin_deg=5.0)
+    # Surveillance radials in 235..335 deg, then the Doppler radials paired with them.
+    assert len(decoded) == 2
+    assert decoded[0] == sweep.azimuth_deg.size and 196 <= decoded[0] <= 204
+    assert decoded[1] <= decoded[0]
+    rows = np.searchsorted(truth.azimuth_deg, sweep.azimuth_deg)
+    np.testing.assert_array_equal(truth.azimuth_deg[rows], sweep.azimuth_deg)
+    for name, values in sweep.fields.items():
+        np.testing.assert_array_equal(values, truth.fields[name][rows], err_msg=name)
 
 
 # -------------------------------------------------------------------------------- errors
@@ -375,40 +495,55 @@ def test_choose_rejects_far_elevation() -> None:
 
 # ------------------------------------------------------------ synthetic: merge of cuts
 
+# Level-II (scale, offset): value = (code - offset) / scale.
+_SCALE = {"DBZH": (2.0, 66.0), "VRADH": (2.0, 129.0), "WRADH": (2.0, 129.0)}
 
-def _raw_sweep(azimuth, first_gate, ngates, moments: dict[str, np.ndarray]) -> xr.Dataset:
-    """An undecoded sweep as xradar returns it with mask_and_scale=False."""
-    scale = {"DBZH": (0.5, -33.0), "VRADH": (0.5, -64.5), "WRADH": (0.5, -64.5)}
-    variables = {}
-    for name, codes in moments.items():
-        factor, offset = scale[name]
-        attrs = {"scale_factor": factor, "add_offset": offset}
-        variables[name] = (("azimuth", "range"), codes.astype(np.uint8), attrs)
-    coords = {
-        "azimuth": np.asarray(azimuth, dtype=np.float64),
-        "range": first_gate + 250.0 * np.arange(ngates, dtype=np.float32),
-    }
-    return xr.Dataset(variables, coords=coords)
+
+def _synthetic_cut(
+    azimuth, moments: dict[str, tuple[np.ndarray, float, float]]
+) -> tuple[_CutData, list[np.ndarray]]:
+    """A cut of undecoded codes (``moments[name] = (codes, first gate m, gate step m)``), and
+    the list the rows the merge reads from it are appended to."""
+    read_rows: list[np.ndarray] = []
+
+    def read(rows, names):
+        read_rows.append(np.asarray(rows))
+        out = {}
+        for name in names:
+            if name in moments:
+                codes, first, step = moments[name]
+                scale, offset = _SCALE[name]
+                out[name] = _Moment(codes[rows], first, step, 1.0 / scale, -offset / scale)
+        return out
+
+    return _CutData(np.asarray(azimuth, dtype=np.float64), read), read_rows
+
+
+def _velocity_codes(v) -> np.ndarray:
+    return np.round(129 + 2 * np.asarray(v, dtype=np.float64)).astype(np.uint8)
 
 
 def test_assemble_legacy_single_pol_split_cut() -> None:
     az_s = np.array([359.8, 0.3, 0.8, 1.3, 2.7])  # time order, crossing north
     dbz = np.full((5, 6), 106, dtype=np.uint8)  # 20 dBZ everywhere ...
     dbz[2, 1] = 0  # ... except one gate below threshold
-    surv = _raw_sweep(az_s, 2125.0, 6, {"DBZH": dbz})
+    surv, _ = _synthetic_cut(az_s, {"DBZH": (dbz, 2125.0, 250.0)})
 
     az_d = np.array([0.25, 359.9, 0.85, 1.4, 2.0])  # 2.7 has no partner within 0.25 deg
     # Doppler radial i, gate g carries 10 i + g m/s (code = 129 + 2 v), so rows are traceable.
-    vel = (129 + 2 * (10 * np.arange(5)[:, None] + np.arange(4)[None, :])).astype(np.uint8)
+    vel = _velocity_codes(10 * np.arange(5)[:, None] + np.arange(4)[None, :])
     vel[:, 0] = 1  # range folded
     width = np.full((5, 4), 131, dtype=np.uint8)  # 1 m/s
     width[:, 3] = 120  # a negative width, physically impossible
-    dopp = _raw_sweep(az_d, 2125.0, 4, {"VRADH": vel, "WRADH": width})
+    dopp, dopp_rows = _synthetic_cut(
+        az_d, {"VRADH": (vel, 2125.0, 250.0), "WRADH": (width, 2125.0, 250.0)}
+    )
 
     azimuth, range_m, fields = _assemble(
         surv, dopp, radial_width_deg=0.5, sector_deg=None, margin_deg=0.0
     )
     np.testing.assert_allclose(azimuth, [0.3, 0.8, 1.3, 2.7, 359.8])
+    np.testing.assert_allclose(range_m, 2125.0 + 250.0 * np.arange(6))
     assert set(fields) == {"DBZH", "VRADH", "WRADH"}
     sweep = TruthSweep(azimuth, 0.5, range_m, 0.5, 250.0, fields, 25.0, {}, "synthetic")
     assert not sweep.polarimetric
@@ -426,15 +561,55 @@ def test_assemble_legacy_single_pol_split_cut() -> None:
     assert np.all(np.isnan(fields["WRADH"][:, 3]))
     np.testing.assert_allclose(fields["WRADH"][[0, 2, 4], 1:3], 1.0)
     assert np.isnan(fields["DBZH"][1, 1]) and np.nanmin(fields["DBZH"]) == 20.0
+    # Only the Doppler radials paired with a surveillance radial were read (not 2.0 deg).
+    np.testing.assert_array_equal(dopp_rows[0], [0, 1, 2, 3])
+
+
+def test_assemble_finer_doppler_gates_are_averaged_by_range() -> None:
+    """Message 1 geometry: 1 km reflectivity gates from 0 m, 250 m Doppler gates from -375 m."""
+    dbz = np.full((1, 3), 106, dtype=np.uint8)  # gates centred 0, 1000, 2000 m
+    surv, _ = _synthetic_cut([10.0], {"DBZH": (dbz, 0.0, 1000.0)})
+    nyquist = 28.0
+    v = np.full(10, np.nan)  # centres -375, -125, ..., 1875 m: four per gate, two in gate 2
+    v[0:4] = [1.0, 2.0, 4.0, 5.0]  # gate 0: mean 3
+    v[4:8] = [27.0, -27.0, np.nan, np.nan]  # gate 1: folded at +-28, i.e. 27 and 29: mean 28
+    v[9] = 28.5  # gate 2: one valid gate just beyond the Nyquist velocity, kept as it is
+    vel = np.where(np.isnan(v), 0, _velocity_codes(np.nan_to_num(v))).astype(np.uint8)[None, :]
+    width = np.where(np.isnan(v), 0, 131).astype(np.uint8)[None, :]  # 1 m/s where measured
+    dopp, _ = _synthetic_cut(
+        [10.2], {"VRADH": (vel, -375.0, 250.0), "WRADH": (width, -375.0, 250.0)}
+    )
+
+    _, range_m, fields = _assemble(
+        surv,
+        dopp,
+        radial_width_deg=1.0,
+        sector_deg=None,
+        margin_deg=0.0,
+        nyquist_velocity_ms=nyquist,
+    )
+    np.testing.assert_allclose(range_m, [0.0, 1000.0, 2000.0])
+    np.testing.assert_allclose(fields["VRADH"][0], [3.0, 28.0, 28.5], atol=1e-5)
+    # Width of the summed spectra: sqrt(mean w^2 + mean (v - mean v)^2).
+    spread0 = np.mean((np.array([1.0, 2.0, 4.0, 5.0]) - 3.0) ** 2)
+    np.testing.assert_allclose(
+        fields["WRADH"][0], np.sqrt([1.0 + spread0, 1.0 + 1.0, 1.0]), rtol=1e-6
+    )
+    # With no Nyquist velocity known the mean is arithmetic: 27 and -27 average to 0.
+    _, _, plain = _assemble(surv, dopp, radial_width_deg=1.0, sector_deg=None, margin_deg=0.0)
+    np.testing.assert_allclose(plain["VRADH"][0], [3.0, 0.0, 28.5], atol=1e-5)
 
 
 def test_assemble_wrapping_sector_order() -> None:
     az = np.array([5.0, 355.0, 0.5, 180.0, 359.5, 9.5])
-    surv = _raw_sweep(az, 2125.0, 2, {"DBZH": np.full((6, 2), 100, dtype=np.uint8)})
+    codes = np.full((6, 2), 100, dtype=np.uint8)
+    surv, surv_rows = _synthetic_cut(az, {"DBZH": (codes, 2125.0, 250.0)})
     azimuth, _, _ = _assemble(
         surv, None, radial_width_deg=0.5, sector_deg=(355.0, 10.0), margin_deg=0.0
     )
     np.testing.assert_allclose(azimuth, [355.0, 359.5, 0.5, 5.0, 9.5])
+    # Only the radials in the sector were read, in sector order.
+    np.testing.assert_array_equal(surv_rows[0], [1, 4, 2, 0, 5])
 
 
 def test_overlapping_radials_are_dropped() -> None:
@@ -443,3 +618,9 @@ def test_overlapping_radials_are_dropped() -> None:
     keep = _drop_duplicate_radials(az, 0.5)
     assert keep.size == 720 and az.size - 1 not in keep
     np.testing.assert_array_equal(_drop_duplicate_radials(az[:-1], 0.5), np.arange(720))
+
+
+def test_equal_azimuths_pair_with_the_earlier_radial() -> None:
+    source = np.array([10.0, 20.0, 20.0, 359.9, 0.1, 0.1])
+    target = np.array([19.9, 20.1, 20.0, 0.05, 5.0])
+    np.testing.assert_array_equal(_nearest_circular(target, source, 0.5), [1, 1, 1, 4, -1])

@@ -139,6 +139,10 @@ def test_legacy_single_polarisation_file_runs(tmp_path):
     )
     assert res.returncode == 0, res.stderr
     assert "Warning" not in res.stderr
+    assert "note:" in res.stderr and "single polarisation" in res.stderr
     scores = json.loads(run_cli("score", str(out), "--json").stdout)
     assert "DBZH" in scores and scores["DBZH"]["count"] > 500
+    assert "VRADH" in scores and scores["VRADH"]["count"] > 500
     assert "ZDR" not in scores and "RHOHV" not in scores
+    sweep = xr.open_datatree(out, engine="zarr")["sweep_0"]
+    assert "ZDR" not in sweep and "PHIDP" not in sweep
