@@ -99,31 +99,43 @@ def plot(results: dict[str, list[dict]], path: str) -> None:
     moments = ["DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH"]
     fig, axes = plt.subplots(2, 3, figsize=(12, 7))
     for ax, m in zip(axes.flat, moments, strict=True):
-        for name, rows in results.items():
+        for k, (name, rows) in enumerate(results.items()):
             t = [r["seconds_weather"] for r in rows]
             s = [r["std"].get(m) for r in rows]
             ax.plot(t, s, "o-", label=name)
-            for r, x, y in zip(rows, t, s, strict=True):
-                ax.annotate(r["level"], (x, y), fontsize=7, rotation=20)
+            if k == 0:  # level names once per panel, on the first series
+                for r, x, y in zip(rows, t, s, strict=True):
+                    ax.annotate(r["level"], (x, y), fontsize=6, rotation=30)
         ax.set_xscale("log")
         ax.set_xlabel("weather channel seconds")
         ax.set_ylabel(f"std of {m} error against truth")
         ax.grid(alpha=0.3)
     axes.flat[0].legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=80)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--truth", required=True)
+    ap.add_argument("--truth")
     ap.add_argument("--sector", default="280:300")
     ap.add_argument("--graphs", nargs="+", default=["generic_radar", "cppar10_radar"])
     ap.add_argument("--levels", default=None)
     ap.add_argument("--plot", default=None)
     ap.add_argument("--skip-outputs", action="store_true")
+    ap.add_argument(
+        "--plot-from", nargs="+", metavar="JSONL", help="only plot earlier runs' printed lines"
+    )
     args = ap.parse_args()
-    results = {}
+    results: dict[str, list[dict]] = {}
+    if args.plot_from:
+        for path in args.plot_from:
+            for line in Path(path).read_text().splitlines():
+                row = json.loads(line)
+                if "level" in row:
+                    results.setdefault(f"{row['graph']} {row['sector']}", []).append(row)
+        plot(results, args.plot or "tradeoff.png")
+        return
     for name in args.graphs:
         graph = str(ROOT / "graphs" / f"{name}.yaml")
         extra = ["--levels", args.levels] if args.levels else []

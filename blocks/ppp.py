@@ -9,6 +9,7 @@ import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output
 
+from .cf import cf_attributes
 from .signals import (
     BEAMS,
     CALIBRATION,
@@ -130,12 +131,11 @@ class PulsePairProcessor(Block):
     )
     moments = Output(MOMENTS, store="moments", doc="estimated moments", fields=MOMENT_FIELDS)
 
-    @classmethod
-    def warm_up(cls) -> None:
-        import xradar.model  # noqa: F401
+    def setup(self) -> None:
+        self._cf = cf_attributes()
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        import xradar.model as xm  # heavy; listing and validating blocks must not pay for it
+        cf = self._cf
 
         iq, noise = inputs["iq"], inputs["noise_power"]
         cal = inputs["calibration"]
@@ -177,16 +177,13 @@ class PulsePairProcessor(Block):
         fields |= {k: est[k] for k in ("RHOHV", "PHIDP", "VRADH", "WRADH") if k in est}
         fields = {k: v for k, v in fields.items() if chunk.wants(k)}
         ds = xr.Dataset(
-            {
-                k: (("beam", "range"), v.astype(np.float32), dict(xm.sweep_vars_mapping[k]))
-                for k, v in fields.items()
-            },
-            coords={"range": ("range", rng, xm.get_range_attrs())},
+            {k: (("beam", "range"), v.astype(np.float32), cf.var(k)) for k, v in fields.items()},
+            coords={"range": ("range", rng, dict(cf.range))},
         )
         nyquist = lam / (4 * prt)
         ds["nyquist_velocity"] = (
             "beam",
             np.full(iq.shape[0], nyquist),
-            xm.get_nyquist_velocity_attrs(),
+            dict(cf.nyquist_velocity),
         )
         return {"moments": ds}

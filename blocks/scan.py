@@ -10,6 +10,7 @@ import xarray as xr
 from pasim_graph import Block, Chunk, Input, Output, Param
 
 from .angles import circular_difference, nearest_radial
+from .cf import cf_attributes
 from .signals import BEAMS, TRUTH
 
 
@@ -53,11 +54,8 @@ class PPISector(Block):
     prt_s = Param(1 / 300, units="s", min=1e-5, max=0.1, doc="pulse repetition time")
     align_to_truth = Param(True, type="bool", doc="point each beam at the nearest truth radial")
 
-    @classmethod
-    def warm_up(cls) -> None:
-        import xradar.model  # noqa: F401
-
     def setup(self) -> None:
+        self._cf = cf_attributes()
         span = (self.p["azimuth_stop_deg"] - self.p["azimuth_start_deg"]) % 360.0 or 360.0
         self.n_beams = max(1, round(span / self.p["beam_spacing_deg"]))
 
@@ -69,8 +67,7 @@ class PPISector(Block):
         return (self.p["azimuth_start_deg"] + step * (np.arange(self.n_beams) + 0.5)) % 360.0
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        import xradar.model as xm  # heavy; listing and validating blocks must not pay for it
-
+        cf = self._cf
         az = self.nominal_azimuths()
         truth = inputs.get("truth")
         start = np.datetime64("2000-01-01T00:00:00", "ns")
@@ -90,7 +87,7 @@ class PPISector(Block):
             {
                 "sweep_number": ((), 0),
                 "sweep_mode": ((), "azimuth_surveillance"),
-                "sweep_fixed_angle": ((), float(self.p["elevation_deg"]), xm.get_elevation_attrs()),
+                "sweep_fixed_angle": ((), float(self.p["elevation_deg"]), dict(cf.elevation)),
                 "prt": (
                     "beam",
                     np.full(beams.size, self.p["prt_s"]),
@@ -108,15 +105,15 @@ class PPISector(Block):
                 "instrument_type": ((), "radar"),
             },
             coords={
-                "azimuth": ("beam", az[beams].astype(np.float64), xm.get_azimuth_attrs()),
-                "elevation": ("beam", elevation, xm.get_elevation_attrs()),
+                "azimuth": ("beam", az[beams].astype(np.float64), dict(cf.azimuth)),
+                "elevation": ("beam", elevation, dict(cf.elevation)),
                 "time": ("beam", time, {"standard_name": "time"}),
                 **{k: ((), v) for k, v in site.items()},
             },
         )
-        ds["latitude"].attrs = xm.get_latitude_attrs()
-        ds["longitude"].attrs = xm.get_longitude_attrs()
-        ds["altitude"].attrs = xm.get_altitude_attrs()
+        ds["latitude"].attrs = dict(cf.latitude)
+        ds["longitude"].attrs = dict(cf.longitude)
+        ds["altitude"].attrs = dict(cf.altitude)
         return {"beams": ds}
 
 

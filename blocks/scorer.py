@@ -10,6 +10,7 @@ import xarray as xr
 from pasim_graph import Block, Chunk, Input, Output, Param
 
 from .angles import circular_difference, nearest_radial
+from .cf import cf_attributes
 from .signals import BEAMS, MOMENTS, NOISE_POWER, SCORES, SIGNAL_POWER, TRUTH
 
 #: NEXRAD data-quality requirements (paper Table 3): bias, standard deviation, units.
@@ -65,12 +66,11 @@ class NexradScorer(Block):
         10.0, units="dB", min=-100.0, max=100.0, doc="score gates with expected SNR at least this"
     )
 
-    @classmethod
-    def warm_up(cls) -> None:
-        import xradar.model  # noqa: F401
+    def setup(self) -> None:
+        self._cf = cf_attributes()
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        import xradar.model as xm  # heavy; listing and validating blocks must not pay for it
+        cf = self._cf
 
         est, truth, beams = inputs["moments"], inputs["truth"], inputs["beams"]
         radials = truth["azimuth"].values
@@ -99,7 +99,7 @@ class NexradScorer(Block):
                     dims,
                     snr.astype(np.float32),
                     {
-                        **xm.sweep_vars_mapping.get("SNRH", {}),
+                        **cf.var("SNRH"),
                         "units": "dB",
                         "long_name": "expected signal-to-noise ratio H (noise-free echo power)",
                     },
@@ -125,7 +125,7 @@ class NexradScorer(Block):
             out[f"truth_{name}"] = (
                 dims,
                 t.astype(np.float32),
-                {**xm.sweep_vars_mapping[name], "source": "truth"},
+                {**cf.var(name), "source": "truth"},
             )
             out[f"error_{name}"] = (
                 dims,

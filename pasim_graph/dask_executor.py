@@ -249,9 +249,20 @@ class DaskExecutor:
         if self.scheduler:
             client = Client(self.scheduler)
         else:
-            self._cluster = LocalCluster(
-                n_workers=self.workers, threads_per_worker=1, processes=True, dashboard_address=None
-            )
+            import dask
+
+            # Dask's nannies give their workers MALLOC_TRIM_THRESHOLD_, which turns off glibc's
+            # adaptive mmap threshold: every large numpy temporary becomes a fresh mmap of
+            # zeroed pages. Measured on the generic radar: chunks 1.5x slower. Memory stays
+            # bounded by the chunk without it.
+            trim = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
+            with dask.config.set({trim: None}):
+                self._cluster = LocalCluster(
+                    n_workers=self.workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                )
             client = Client(self._cluster)
         # Workers import the block modules (and their numerical libraries) now, while this
         # process is still reading the inputs, not when their first chunk arrives.
