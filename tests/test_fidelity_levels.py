@@ -216,3 +216,14 @@ def test_combined_and_covariance_estimates_have_the_same_spread():
         }
     for k in stds["combined"]:
         assert stds["combined"][k] / stds["covariance"][k] == pytest.approx(1.0, abs=0.12), k
+
+
+def test_truth_read_for_a_narrower_sector_than_the_pattern_needs_is_refused():
+    """A truth read for a sector must cover every beam's pattern grid, or the run stops."""
+    beams = np.arange(2)
+    inputs = chain_inputs(uniform_truth(n_gates=10), beams, pulses=8)  # beams at 100.5, 101.5
+    inside = inputs | {"truth": inputs["truth"].isel(radial=slice(180, 230))}  # 90-115 deg
+    weather(inside, beams, "combined")  # +-4 deg of pattern fits
+    narrow = inputs | {"truth": inputs["truth"].isel(radial=slice(196, 230))}  # 98-115 deg
+    with pytest.raises(ValueError, match="margin_deg"):
+        weather(narrow, beams, "combined")
