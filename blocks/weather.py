@@ -790,13 +790,16 @@ class WeatherChannel(Block):
         g_u, c_u = uniq // n_codes, uniq % n_codes
         z1 = _complex_normal(gen_h, (uniq.size,), np.float64)
         a_h = np.sqrt(tot[0]) * z1
-        np.add.at(out[0], g_u, (a_h[:, None] * cells.tones[c_u]).astype(out.dtype))
+        # Keys sort by gate first: each gate's tones are one segment to sum.
+        starts = np.flatnonzero(np.diff(g_u, prepend=-1))
+        gates = g_u[starts]
+        out[0, gates] += np.add.reduceat(a_h[:, None] * cells.tones[c_u], starts, axis=0)
         if need_v:
             inv_h = np.divide(1, np.sqrt(tot[0]), out=np.zeros_like(tot[0]), where=tot[0] > 0)
             l21 = (tot[2] + 1j * tot[3]) * inv_h
             l22 = np.sqrt(np.maximum(tot[1] - np.abs(l21) ** 2, 0))
             a_v = l21 * z1 + l22 * _complex_normal(gen_v, (uniq.size,), np.float64)
-            np.add.at(out[1], g_u, (a_v[:, None] * cells.tones[c_u]).astype(out.dtype))
+            out[1, gates] += np.add.reduceat(a_v[:, None] * cells.tones[c_u], starts, axis=0)
 
 
 def _check_coverage(
