@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import scipy.fft
@@ -450,6 +450,22 @@ class TruthCells:
         ).astype(np.complex64 if self.dtype == np.float32 else np.complex128)
 
 
+class BeamDraw(NamedTuple):
+    """What every drawing path needs for one beam: the truth cells, the radials near the beam
+    and their two-way weights, the range weighting, the beam's H and V random streams, and
+    whether V is wanted."""
+
+    cells: TruthCells
+    near: np.ndarray
+    omega: np.ndarray
+    k_off: np.ndarray
+    r_k: np.ndarray
+    pad: int
+    gen_h: np.random.Generator
+    gen_v: np.random.Generator
+    need_v: bool
+
+
 def range_sum(a: np.ndarray, k_off: np.ndarray, weights: np.ndarray, pad: int, n_g: int) -> Any:
     """sum_k weights[k] * a[pad + k : pad + k + n_g] along the first axis (the range weighting)."""
     # Weights in the array's own precision, so float32 work is not promoted to float64.
@@ -622,11 +638,11 @@ class WeatherChannel(Block):
             if method == "expected" or near.size == 0:
                 continue
             gen_h, gen_v = chunk.rng(int(beam)), chunk.rng(int(beam), 1)
-            draw = (cells, near, omega, k_off, r_k, pad, gen_h, gen_v, need_v)
+            draw = BeamDraw(cells, near, omega, k_off, r_k, pad, gen_h, gen_v, need_v)
             if method == "combined":
-                self._combined(iq[i], *draw)
-                self._tones(iq[i], *draw)
-            self._per_cell(iq[i], *draw)
+                self._combined(iq[i], draw)
+                self._tones(iq[i], draw)
+            self._per_cell(iq[i], draw)
 
         omega_bs = np.array([pattern.attrs[f"two_way_solid_angle_sr_{p}"] for p in POLARIZATIONS])
         constant_db = 10 * np.log10(k0 * omega_bs * r_k.sum())
@@ -663,19 +679,9 @@ class WeatherChannel(Block):
         return np.stack([w_h, w_v, r1_h, r1_v, r0_hv], axis=-1)
 
     @staticmethod
-    def _per_cell(
-        out: np.ndarray,
-        cells: TruthCells,
-        near: np.ndarray,
-        omega: np.ndarray,
-        k_off: np.ndarray,
-        r_k: np.ndarray,
-        pad: int,
-        gen_h: np.random.Generator,
-        gen_v: np.random.Generator,
-        need_v: bool,
-    ) -> None:
+    def _per_cell(out: np.ndarray, beam: BeamDraw) -> None:
         """Add the per-cell draws (covariance, monte_carlo, or combined's narrow cells)."""
+        cells, near, omega, k_off, r_k, pad, gen_h, gen_v, need_v = beam
         if cells.per_cell is None or cells.model is None:
             return
         # Cells ordered by gate, then radial, so that each gate's sum is one segment.
@@ -695,19 +701,9 @@ class WeatherChannel(Block):
         out += range_sum(volts.transpose(1, 0, 2), k_off, np.sqrt(r_k), pad, n_g).transpose(1, 0, 2)
 
     @staticmethod
-    def _combined(
-        out: np.ndarray,
-        cells: TruthCells,
-        near: np.ndarray,
-        omega: np.ndarray,
-        k_off: np.ndarray,
-        r_k: np.ndarray,
-        pad: int,
-        gen_h: np.random.Generator,
-        gen_v: np.random.Generator,
-        need_v: bool,
-    ) -> None:
+    def _combined(out: np.ndarray, beam: BeamDraw) -> None:
         """Add each gate's series drawn from its combined spectral matrix (circulant embedding)."""
+        cells, near, omega, k_off, r_k, pad, gen_h, gen_v, need_v = beam
         n_g, pulses = out.shape[1], out.shape[2]
         dtype = cells.dtype
         n = cells.spectra.shape[1]
@@ -756,19 +752,9 @@ class WeatherChannel(Block):
         out[1, gates] = scipy.fft.ifft(l21 * z1 + l22 * z2, axis=-1, overwrite_x=True)[:, :pulses]
 
     @staticmethod
-    def _tones(
-        out: np.ndarray,
-        cells: TruthCells,
-        near: np.ndarray,
-        omega: np.ndarray,
-        k_off: np.ndarray,
-        r_k: np.ndarray,
-        pad: int,
-        gen_h: np.random.Generator,
-        gen_v: np.random.Generator,
-        need_v: bool,
-    ) -> None:
+    def _tones(out: np.ndarray, beam: BeamDraw) -> None:
         """Add the zero-width cells: one random tone per output gate and velocity (exact)."""
+        cells, near, omega, k_off, r_k, pad, gen_h, gen_v, need_v = beam
         jj, gg = np.nonzero(cells.tone[near])
         if not jj.size:
             return
