@@ -17,6 +17,14 @@ from pasim_graph import Block, Chunk, Input, Output, Param
 
 from .signals import BEAMS, PATTERN, POLARIZATIONS
 
+#: Parameters several antennas declare alike (each class gets its own named copy).
+PATTERN_SUPPORT = Param(
+    10.0, units="deg", min=0.5, max=45.0, doc="half-width of the pattern grid around the beam axis"
+)
+PATCH_SIDE = Param(
+    0.0524, units="m", min=1e-3, max=1.0, doc="side of the square patch (paper Table 1)"
+)
+
 
 def offsets(support_deg: float, step_deg: float) -> np.ndarray:
     n = int(np.ceil(support_deg / step_deg))
@@ -129,13 +137,7 @@ class PencilBeamAntenna(AxisymmetricAntenna):
     first_sidelobe_db = Param(
         -32.0, units="dB", min=-60.0, max=-17.6, doc="first sidelobe level, one-way"
     )
-    support_deg = Param(
-        10.0,
-        units="deg",
-        min=0.5,
-        max=45.0,
-        doc="half-width of the pattern grid around the beam axis",
-    )
+    support_deg = PATTERN_SUPPORT
 
     def setup(self) -> None:
         from .patterns import PencilBeam
@@ -199,9 +201,7 @@ class PlanarPatchArray(Block):
     n_y = Param(80, type="int", min=1, max=4096, doc="elements up (elevation)")
     spacing_x_m = Param(0.0524, units="m", min=1e-3, max=10.0, doc="element spacing across")
     spacing_y_m = Param(0.0524, units="m", min=1e-3, max=10.0, doc="element spacing up")
-    patch_m = Param(
-        0.0524, units="m", min=1e-3, max=1.0, doc="side of the square patch (paper Table 1)"
-    )
+    patch_m = PATCH_SIDE
     taylor_sll_db = Param(
         -30.0, units="dB", min=-80.0, max=-13.0, doc="Taylor taper sidelobe level (both axes)"
     )
@@ -210,13 +210,7 @@ class PlanarPatchArray(Block):
         285.0, units="deg", min=0.0, max=360.0, doc="azimuth of the array face normal"
     )
     face_tilt_deg = Param(0.0, units="deg", min=-30.0, max=60.0, doc="upward tilt of the face")
-    support_deg = Param(
-        10.0,
-        units="deg",
-        min=0.5,
-        max=45.0,
-        doc="half-width of the pattern grid around the beam axis",
-    )
+    support_deg = PATTERN_SUPPORT
     grid_step_deg = Param(0.05, units="deg", min=0.001, max=1.0, doc="pattern grid step")
 
     @classmethod

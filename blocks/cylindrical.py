@@ -16,7 +16,13 @@ import numpy as np
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
-from .antenna import offsets, pattern_dataset, two_way_solid_angle
+from .antenna import (
+    PATCH_SIDE,
+    PATTERN_SUPPORT,
+    offsets,
+    pattern_dataset,
+    two_way_solid_angle,
+)
 from .signals import BEAMS, PATTERN, POLARIZATIONS
 
 # Samples per column spacing of the full-circle azimuth grid used for the directivity
@@ -83,9 +89,7 @@ class CylindricalArray(Block):
     )
     elements_per_column = Param(128, type="int", min=1, max=4096, doc="patches per column")
     spacing_y_m = Param(0.0524, units="m", min=1e-3, max=10.0, doc="element spacing up")
-    patch_m = Param(
-        0.0524, units="m", min=1e-3, max=1.0, doc="side of the square patch (paper Table 1)"
-    )
+    patch_m = PATCH_SIDE
     taylor_sll_db = Param(
         -30.0, units="dB", min=-80.0, max=-13.0, doc="Taylor sidelobe level across the sector"
     )
@@ -103,13 +107,7 @@ class CylindricalArray(Block):
     first_column_azimuth_deg = Param(
         0.0, units="deg", min=0.0, max=360.0, doc="azimuth of column 0's outward normal"
     )
-    support_deg = Param(
-        10.0,
-        units="deg",
-        min=0.5,
-        max=45.0,
-        doc="half-width of the pattern grid around the beam axis",
-    )
+    support_deg = PATTERN_SUPPORT
     grid_step_deg = Param(
         0.05,
         units="deg",
