@@ -85,31 +85,29 @@ def _graph_and_overrides(args: argparse.Namespace) -> tuple[Graph, dict[str, Any
         raise GraphError(exc.problems + problems) from None
     if problems:
         raise GraphError(problems)
-    sector = _truth_sector(graph, roles, overrides)
+    sector = _truth_sector(graph)
     if sector:
         overrides |= sector
         graph = validate(spec, overrides)
     return graph, overrides
 
 
-def _truth_sector(
-    graph: Graph, roles: dict[str, list[str]], overrides: dict[str, Any]
-) -> dict[str, Any]:
+def _truth_sector(graph: Graph) -> dict[str, Any]:
     """Let a truth block that can read a sector read only the scan's (plus its margin).
 
     Applies when there is one truth and one scan block, both declare ``azimuth_start_deg`` and
     ``azimuth_stop_deg``, and the truth's sector is not set already.
     """
     keys = ("azimuth_start_deg", "azimuth_stop_deg")
-    truth, scan = roles.get("truth", []), roles.get("scan", [])
+    truth, scan = graph.by_role("truth"), graph.by_role("scan")
     if len(truth) != 1 or len(scan) != 1:
         return {}
     t, s = truth[0], scan[0]
     if not all(k in graph.classes[t].params and k in graph.classes[s].params for k in keys):
         return {}
-    if any(graph.params[t].get(k) is not None for k in keys):
+    if any(graph.value(t, k) is not None for k in keys):
         return {}
-    return {f"{t}.{k}": graph.params[s][k] for k in keys}
+    return {f"{t}.{k}": graph.value(s, k) for k in keys}
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
@@ -236,12 +234,12 @@ def _fields(text: str | None, graph: Graph) -> tuple[str, ...] | None:
 
 
 def cmd_tradeoff(args: argparse.Namespace) -> int:
-    from .tradeoff import TradeoffError, format_table, ladder, tradeoff
+    from .tradeoff import TradeoffError, format_table, ladder, ladder_keys, tradeoff
 
     graph, overrides = _graph_and_overrides(args)
     labels = [x.strip() for x in args.levels.split(",")] if args.levels else None
     try:
-        keys = list(dict.fromkeys(k for r in ladder(graph) for k in r.params))
+        keys = ladder_keys(ladder(graph))
         rows = tradeoff(
             graph,
             str(args.graph),

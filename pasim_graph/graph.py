@@ -82,6 +82,10 @@ class Graph:
     def by_role(self, role: str) -> list[str]:
         return sorted(n for n, c in self.classes.items() if c.role == role)
 
+    def value(self, block: str, param: str) -> Any:
+        """The value a block's parameter runs with: the graph's, or the class default."""
+        return self.params[block].get(param, self.classes[block].params[param].default)
+
     def build(self) -> dict[str, Block]:
         """Instantiate every block with its resolved parameters."""
         return {n: self.classes[n](name=n, **self.params[n]) for n in self.order()}

@@ -48,6 +48,11 @@ def ladder(graph: Graph) -> list[Rung]:
     return [Rung(label, name, dict(p)) for label, p in graph.classes[name].fidelity_ladder]
 
 
+def ladder_keys(rungs: list[Rung]) -> list[str]:
+    """The parameters a ladder sets, in the order its rungs first name them."""
+    return list(dict.fromkeys(k for r in rungs for k in r.params))
+
+
 def run_rung(graph_path: str, overrides: dict[str, Any], seed: int, chunk: int) -> dict[str, Any]:
     """Run one rung in this process; returns timings, peak memory and the error fields."""
     from .executor import LocalExecutor, RunOptions
@@ -128,9 +133,7 @@ def tradeoff(
                 f"unknown level(s) {', '.join(unknown)}; the ladder is {', '.join(known)}"
             )
         rungs = [r for r in rungs if r.label in labels]
-    keys = list(dict.fromkeys(k for r in rungs for k in r.params))
-    block_cls = graph.classes[rungs[0].block]
-    base = {k: graph.params[rungs[0].block].get(k, block_cls.params[k].default) for k in keys}
+    base = {k: graph.value(rungs[0].block, k) for k in ladder_keys(rungs)}
     results = []
     with tempfile.TemporaryDirectory(prefix="pasim-tradeoff-") as tmp:
         for i, rung in enumerate(rungs):

@@ -55,3 +55,13 @@ def test_tradeoff_json_rows(tmp_path):
 def test_tradeoff_unknown_level():
     res = run_cli("tradeoff", GENERIC, *SMALL, "--levels", "fastest")
     assert res.returncode == 2 and "fastest" in res.stderr and "expected" in res.stderr
+
+
+def test_truth_sector_follows_a_scan_left_at_its_defaults(tmp_path):
+    """The truth reads the scan's sector even when the graph file leaves it to the defaults."""
+    text = (GRAPHS / "generic_radar.yaml").read_text()
+    text = text.replace("azimuth_start_deg: 240.0, azimuth_stop_deg: 330.0, ", "")
+    graph = tmp_path / "defaults.yaml"
+    graph.write_text(text)
+    res = run_cli("validate", str(graph), "--json")
+    assert res.returncode == 0, res.stderr
