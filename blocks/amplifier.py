@@ -12,15 +12,7 @@ from .signals import PULSE
 
 
 class IdealAmplifier(Block):
-    """A linear amplifier: the pulse passes unchanged (peak power set by the radar equation).
-
-    Inputs
-    ------
-    pulse : pulse
-    Outputs
-    -------
-    pulse : pulse
-    """
+    """A linear amplifier: the pulse passes unchanged (peak power set by the radar equation)."""
 
     pulse_in = Input(PULSE, doc="drive envelope")
     pulse = Output(PULSE, doc="radiated envelope, peak amplitude 1 at peak power")
@@ -43,14 +35,6 @@ class SalehAmplifier(Block):
     The drive envelope is scaled so its peak sits ``input_backoff_db`` below the input that
     saturates the amplifier (r_sat = 1/sqrt(beta_a)); the output is normalised to the saturated
     output amplitude, so peak amplitude 1 means the radar's rated peak power.
-
-    Inputs
-    ------
-    pulse_in : pulse
-    Outputs
-    -------
-    pulse : pulse
-        Distorted envelope; its peak is below 1 when backed off.
     """
 
     pulse_in = Input(PULSE, doc="drive envelope, peak amplitude 1")

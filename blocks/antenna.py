@@ -49,14 +49,28 @@ def pattern_dataset(
     **attrs: Any,
 ) -> xr.Dataset:
     return xr.Dataset(
-        {"power": (("beam", "polarization", "elevation_offset", "azimuth_offset"), power)},
+        {
+            "power": (
+                ("beam", "polarization", "elevation_offset", "azimuth_offset"),
+                power,
+                {"units": "1"},
+            ),
+            # Boresight calibration: every beam gets the radar constant of the beam at
+            # broadside, so scan loss and H/V mismatch off broadside stay in the data.
+            "calibration_solid_angle_sr": (
+                ("beam", "polarization"),
+                np.tile([solid_angle_sr[p] for p in POLARIZATIONS], (power.shape[0], 1)),
+                {"units": "sr"},
+            ),
+        },
         coords={
             "polarization": list(POLARIZATIONS),
-            "azimuth_offset_deg": ("azimuth_offset", d_az),
-            "elevation_offset_deg": ("elevation_offset", d_el),
+            "azimuth_offset_deg": ("azimuth_offset", d_az, {"units": "degrees"}),
+            "elevation_offset_deg": ("elevation_offset", d_el, {"units": "degrees"}),
         },
         attrs={
             "gain_db": gain_db,
+            "calibration": "boresight",
             **{f"two_way_solid_angle_sr_{p}": v for p, v in solid_angle_sr.items()},
             **attrs,
         },
@@ -123,14 +137,6 @@ class PencilBeamAntenna(AxisymmetricAntenna):
 
     Circular aperture whose (1 - rho^2)^p taper is solved to give ``first_sidelobe_db``,
     scaled to ``beamwidth_deg``; H and V patterns are identical.
-
-    Inputs
-    ------
-    beams : beams
-    Outputs
-    -------
-    pattern : pattern
-        One-way power pattern per beam and polarisation.
     """
 
     beamwidth_deg = Param(1.0, units="deg", min=0.1, max=30.0, doc="one-way 3-dB beamwidth")
@@ -154,13 +160,6 @@ class IdealAntenna(AxisymmetricAntenna):
 
     One-way power exp(-4 ln 2 theta^2 / beamwidth^2) of the angle theta off the axis, cut to
     zero beyond ``support_deg``; H and V identical.
-
-    Inputs
-    ------
-    beams : beams
-    Outputs
-    -------
-    pattern : pattern
     """
 
     support_deg = Param(
@@ -183,14 +182,6 @@ class PlanarPatchArray(Block):
     ``face_azimuth_deg``. Each beam is steered by phase weights; the pattern is normalised to
     the broadside peak, so scan loss, beam broadening and the H/V mismatch that biases ZDR off
     broadside all appear.
-
-    Inputs
-    ------
-    beams : beams
-    Outputs
-    -------
-    pattern : pattern
-        One-way H and V power patterns per beam, relative to the broadside directivity.
     """
 
     beams = Input(BEAMS, doc="beam geometry")

@@ -68,14 +68,6 @@ class CylindricalArray(Block):
     differently), but the difference is nearly the same for every beam, so the calibration
     removes it. Patterns are normalised to the H peak of a beam on the sector centre at 0 deg
     elevation; ``gain_db`` is that beam's H directivity from the full-sphere pattern integral.
-
-    Inputs
-    ------
-    beams : beams
-    Outputs
-    -------
-    pattern : pattern
-        One-way H and V power patterns per beam, relative to the array's peak gain.
     """
 
     beams = Input(BEAMS, doc="beam geometry")

@@ -21,18 +21,6 @@ class MatchedFilter(Block):
     sees it through the cross-correlation y of the radiated pulse with the reference at lag
     -2 dr / c; the gate's range weighting is |y|^2 (range sidelobes and amplifier distortion
     included), listed against dr in increasing order.
-
-    Inputs
-    ------
-    pulse : pulse
-        Radiated envelope (after the amplifier).
-    reference : pulse
-        Ideal waveform the filter is matched to.
-
-    Outputs
-    -------
-    range_response : range_response
-        ``power_weight`` against ``offset_m`` and the noise bandwidth in attributes.
     """
 
     pulse = Input(PULSE, doc="radiated envelope")
@@ -53,14 +41,24 @@ class MatchedFilter(Block):
         s = tx["envelope"].values
         r = ref["envelope"].values
         energy = float(np.sum(np.abs(r) ** 2))
+        taps = np.conj(r[::-1]) / energy
         lag = np.arange(-(r.size - 1), s.size)
         y = scipy.signal.correlate(s, r, mode="full") / energy
         # Offset dr = -lag c / (2 fs); reversed so that offsets increase.
         offset_m = (-lag / fs * SPEED_OF_LIGHT / 2.0)[::-1]
         y = y[::-1]
         ds = xr.Dataset(
-            {"power_weight": ("offset", np.abs(y) ** 2), "voltage": ("offset", y)},
-            coords={"offset_m": ("offset", offset_m)},
-            attrs={"noise_bandwidth_hz": fs / energy, "sample_rate_hz": fs},
+            {
+                "power_weight": ("offset", np.abs(y) ** 2, {"units": "1"}),
+                "voltage": ("offset", y, {"units": "1"}),
+                "transmitted": ("sample", s.astype(np.complex128), {"units": "1"}),
+                "taps": ("tap", taps.astype(np.complex128), {"units": "1"}),
+            },
+            coords={"offset_m": ("offset", offset_m, {"units": "m"})},
+            attrs={
+                "noise_bandwidth_hz": fs * float(np.sum(np.abs(taps) ** 2)),
+                "sample_rate_hz": fs,
+                "blind_range_m": s.size / fs * SPEED_OF_LIGHT / 2.0,
+            },
         )
         return {"range_response": ds}

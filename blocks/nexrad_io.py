@@ -430,12 +430,20 @@ def _open_volume(path: Path) -> bytes:
     return raw
 
 
-def _records(raw: bytes, path: Path) -> Iterator[bytes]:
+class _Truncation:
+    """Where a truncated file ends: set by :func:`_records` and :func:`_messages`."""
+
+    def __init__(self) -> None:
+        self.at_byte: int | None = None
+
+
+def _records(raw: bytes, path: Path, cut: _Truncation | None = None) -> Iterator[bytes]:
     """The volume's messages as decompressed records, one at a time, in file order.
 
     A compressed volume is a sequence of records, each a 4-byte big-endian length (negative
     for the last one) followed by one bzip2 stream; a plain volume is one record. Records
     are decompressed only when asked for, so a reader that stops early saves the rest.
+    A record that runs past the end of the file (a cut-off download) is noted in ``cut``.
     """
     first = _VOLUME_HEADER_BYTES
     if raw[first + 4 : first + 7] != b"BZh":
@@ -447,6 +455,8 @@ def _records(raw: bytes, path: Path) -> Iterator[bytes]:
         size = abs(int.from_bytes(raw[pos : pos + 4], "big", signed=True))
         if size == 0:
             break
+        if cut is not None and pos + 4 + size > len(raw):
+            cut.at_byte = len(raw)
         try:
             # A decompressor object returns what it can of a record cut short by a
             # truncated download; the sweep being read then ends incomplete.
@@ -454,6 +464,8 @@ def _records(raw: bytes, path: Path) -> Iterator[bytes]:
         except OSError as err:
             raise ValueError(f"{path}: corrupt bzip2 record at byte {pos} ({err})") from err
         pos += 4 + size
+    if cut is not None and 0 < len(raw) - pos < 4:
+        cut.at_byte = len(raw)
 
 
 def _load_volume_bytes(path: Path) -> bytes:
@@ -466,8 +478,13 @@ def _load_volume_bytes(path: Path) -> bytes:
     return bytes(volume)
 
 
-def _messages(records: Iterator[bytes]) -> Iterator[tuple[bytes, int, int]]:
-    """``(record, offset of the message header, message type)`` of every whole message."""
+def _messages(
+    records: Iterator[bytes], cut: _Truncation | None = None
+) -> Iterator[tuple[bytes, int, int]]:
+    """``(record, offset of the message header, message type)`` of every whole message.
+
+    A message cut short (the file ends inside it) is noted in ``cut``.
+    """
     count = 0
     for record in records:
         pos, end = 0, len(record)
@@ -482,6 +499,8 @@ def _messages(records: Iterator[bytes]) -> Iterator[tuple[bytes, int, int]]:
                 if length <= _CTM_BYTES + _MSG_HEADER.size:
                     length = _FRAME_BYTES  # a zero-size message 31 is padding
             if pos + length > end:
+                if cut is not None and cut.at_byte is None:
+                    cut.at_byte = -1  # somewhere in the last record
                 break  # cut short: a truncated record
             count += 1
             if msg_type != 0:  # type 0 frames are padding
@@ -554,8 +573,9 @@ def _scan_volume(path: Path, elevation_deg: float) -> _Volume:
     wanted: frozenset[int] | None = None
     groups: list[tuple[list[_Radial], bool]] = []  # radials of each cut, and complete
     current: list[_Radial] | None = None
+    truncated = _Truncation()
     try:
-        for record, at, msg_type in _messages(_records(raw, path)):
+        for record, at, msg_type in _messages(_records(raw, path, truncated), truncated):
             if msg_type == 5 and not vcp and not groups and current is None:
                 vcp = _vcp_angles(record, at)
                 wanted = _wanted_elevation_numbers(vcp, elevation_deg)
@@ -584,6 +604,27 @@ def _scan_volume(path: Path, elevation_deg: float) -> _Volume:
         raise ValueError(f"{path}: could not decode the Level-II headers ({err!r})") from err
     if current:
         groups.append((current, False))
+    if truncated.at_byte is not None:
+        size = (
+            f" after {len(raw):,} bytes (decompressed)"
+            if truncated.at_byte < 0
+            else (f" at byte {path.stat().st_size:,}")
+        )
+        if not groups:
+            raise ValueError(f"{path} is truncated: the file ends{size}, before any radial")
+        last, complete = groups[-1]
+        angle = float(np.median([r.elevation_deg for r in last]))
+        needed = (
+            last[0].elevation_number in wanted
+            if wanted is not None
+            else abs(angle - elevation_deg) <= _MAX_ELEVATION_MISMATCH_DEG
+        )
+        if not complete and needed:
+            raise ValueError(
+                f"{path} is truncated: the file ends{size}, inside the {angle:.2f} deg cut "
+                f"after its radial {len(last)} (azimuth {last[-1].azimuth_deg:.1f} deg), so "
+                "that cut is incomplete; fetch the whole file again"
+            )
     if not groups:
         raise ValueError(f"{path}: the Level-II volume holds no radial data")
     try:

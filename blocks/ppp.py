@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from pasim_graph import Block, Chunk, Input, Output
+from pasim_graph import Block, Chunk, Input, Output, Param
 
 from .cf import cf_attributes
 from .signals import (
@@ -17,6 +17,7 @@ from .signals import (
     ECHO_CORRELATIONS,
     IQ,
     MOMENT_FIELDS,
+    MOMENT_UNITS,
     MOMENTS,
     NOISE_POWER,
     POLARIMETRIC_FIELDS,
@@ -93,6 +94,15 @@ def pulse_pair(
     )
 
 
+def _censoring_attrs(threshold_db: float) -> dict[str, Any]:
+    if not np.isfinite(threshold_db):
+        return {"censoring": "none"}
+    return {
+        "censoring": f"estimated SNR below {threshold_db:g} dB",
+        "snr_threshold_db": threshold_db,
+    }
+
+
 class PulsePairProcessor(Block):
     """Pulse-pair moments, noise-corrected, calibrated to dBZ with the radar constant.
 
@@ -105,21 +115,6 @@ class PulsePairProcessor(Block):
     channel's ``expected`` level) is estimated from the expected echo correlations instead,
     without noise. Single-polarisation runs (calibration ``dual_polarization`` 0) and runs
     that ask for some fields only skip what is not needed.
-
-    Inputs
-    ------
-    iq : iq
-    noise_power : noise_power
-    calibration : calibration
-    beams : beams
-    echo_correlations : echo_correlations, optional
-        Needed at the weather channel's ``expected`` level.
-
-    Outputs
-    -------
-    moments : moments
-        DBZH, ZDR, RHOHV, PHIDP, VRADH, WRADH (those asked for) and the Nyquist velocity;
-        written to the volume.
     """
 
     iq = Input(IQ, doc="received I/Q")
@@ -131,8 +126,42 @@ class PulsePairProcessor(Block):
     )
     moments = Output(MOMENTS, store="moments", doc="estimated moments", fields=MOMENT_FIELDS)
 
+    # Defaults are the thresholds the real KLBB volume was censored at (Level-II data moment
+    # headers): REF and the dual-pol moments at 2.0 dB, VEL and SW at 3.5 dB.
+    snr_threshold_reflectivity_db = Param(
+        2.0,
+        units="dB",
+        min=-100.0,
+        max=100.0,
+        optional=True,
+        doc="censor DBZH where the estimated SNR is below (null: never)",
+    )
+    snr_threshold_doppler_db = Param(
+        3.5,
+        units="dB",
+        min=-100.0,
+        max=100.0,
+        optional=True,
+        doc="censor VRADH and WRADH where the estimated SNR is below (null: never)",
+    )
+    snr_threshold_polarimetric_db = Param(
+        2.0,
+        units="dB",
+        min=-100.0,
+        max=100.0,
+        optional=True,
+        doc="censor ZDR, RHOHV and PHIDP where the estimated SNR is below (null: never)",
+    )
+
     def setup(self) -> None:
         self._cf = cf_attributes()
+        t = {
+            "DBZH": self.p["snr_threshold_reflectivity_db"],
+            "VRADH": self.p["snr_threshold_doppler_db"],
+            "WRADH": self.p["snr_threshold_doppler_db"],
+        }
+        t |= dict.fromkeys(POLARIMETRIC_FIELDS, self.p["snr_threshold_polarimetric_db"])
+        self._threshold_db = {k: -np.inf if v is None else float(v) for k, v in t.items()}
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         cf = self._cf
@@ -176,9 +205,28 @@ class PulsePairProcessor(Block):
             fields["ZDR"] = est["ZDR"] - (const[:, :1] - const[:, 1:])
         fields |= {k: est[k] for k in ("RHOHV", "PHIDP", "VRADH", "WRADH") if k in est}
         fields = {k: v for k, v in fields.items() if chunk.wants(k)}
+        # Censoring as an operational radar does: a moment is reported only where the
+        # estimated SNR (noise-corrected H power over the noise) reaches its threshold, and
+        # nowhere inside the blind range (the receiver is off while the pulse goes out).
+        with np.errstate(divide="ignore", invalid="ignore"):
+            snr_db = 10 * np.log10(np.where(est["S_H"] > 0, est["S_H"], np.nan) / noise[..., 0])
+        blind = float(cal.attrs["blind_range_m"])
+        visible = rng[None, :] >= blind
         ds = xr.Dataset(
-            {k: (("beam", "range"), v.astype(np.float32), cf.var(k)) for k, v in fields.items()},
+            {
+                k: (
+                    ("beam", "range"),
+                    np.where(visible & ~(snr_db < self._threshold_db[k]), v, np.nan).astype(
+                        np.float32
+                    ),
+                    cf.var(k)
+                    | {"units": MOMENT_UNITS[k]}
+                    | _censoring_attrs(self._threshold_db[k]),
+                )
+                for k, v in fields.items()
+            },
             coords={"range": ("range", rng, dict(cf.range))},
+            attrs={"blind_range_m": blind, "calibration": str(cal.attrs["calibration"])},
         )
         nyquist = lam / (4 * prt)
         ds["nyquist_velocity"] = (

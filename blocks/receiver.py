@@ -34,24 +34,6 @@ class Receiver(Block):
     Everything is referred to the receiver input: a linear gain scales echo
     and noise alike and changes no moment, so it is left out until saturation and the ADC are
     modelled.
-
-    Inputs
-    ------
-    iq_in : iq
-        Noise-free echo voltages.
-    range_response : range_response
-        Gives the noise bandwidth of the matched filter.
-    signal_power : signal_power, optional
-        Expected echo power per gate; needed with ``snr_db``.
-
-    Outputs
-    -------
-    iq : iq
-        Echo plus noise.
-    noise_power : noise_power
-        Noise power per gate and channel (W).
-    iq_store : iq_cube
-        H and V I/Q cubes for the output volume (only when the run saves I/Q).
     """
 
     iq_in = Input(IQ, doc="noise-free echo voltages")

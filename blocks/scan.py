@@ -21,17 +21,6 @@ class PPISector(Block):
     ``azimuth_stop_deg`` (a sector may wrap through north), each dwelling ``pulses`` pulses of
     ``prt_s``. When the truth is connected and ``align_to_truth`` is set, each beam points at
     the nearest truth radial, so the scores compare a beam with the radial it is centred on.
-
-    Inputs
-    ------
-    truth : truth_sweep, optional
-        Gives the site, the start time and the radial azimuths to align to.
-
-    Outputs
-    -------
-    beams : beams
-        Azimuth, elevation and time of each beam of the chunk, PRT, pulses, sweep metadata.
-        Written to the output volume as the sweep's coordinates.
     """
 
     role = "scan"

@@ -5,11 +5,11 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import xarray as xr
 
 from pasim_graph import Block, Chunk, Output, Param
 
 from .signals import TRUTH
+from .truth import truth_dataset
 
 FIELD_PARAMS = {
     "DBZH": "reflectivity_dbz",
@@ -27,12 +27,6 @@ class UniformScene(Block):
     Values are taken as given, including the unphysical ones (rho_hv above 1, widths of 0,
     velocities beyond any Nyquist interval), so that the chain's handling of extremes can be
     studied; the weather channel decides what it can draw.
-
-    Outputs
-    -------
-    truth : truth_sweep
-        DBZH, ZDR, RHOHV, PHIDP, VRADH, WRADH on radials ``radial_width_deg`` apart and
-        ``gates`` gates of ``gate_width_m`` from ``first_gate_m``.
     """
 
     truth = Output(TRUTH, doc="uniform truth fields")
@@ -62,21 +56,21 @@ class UniformScene(Block):
         width = 360.0 / n_radials
         azimuth = (np.arange(n_radials) + 0.5) * width
         rng_m = self.p["first_gate_m"] + self.p["gate_width_m"] * np.arange(self.p["gates"])
-        ds = xr.Dataset(
-            {k: (("radial", "gate"), v) for k, v in self.fields(azimuth, rng_m).items()},
-            coords={"azimuth": ("radial", azimuth), "range": ("gate", rng_m)},
-            attrs={
-                "elevation_deg": float(self.p["elevation_deg"]),
-                "radial_width_deg": width,
-                "gate_width_m": float(self.p["gate_width_m"]),
-                "nyquist_velocity_ms": float("nan"),
-                "source": self.type_name or type(self).__name__,
-                "time_coverage_start": "2000-01-01T00:00:00Z",
-                "latitude": 0.0,
-                "longitude": 0.0,
-                "altitude": 0.0,
-                "instrument_name": "synthetic",
-            },
+        ds = truth_dataset(
+            self.fields(azimuth, rng_m),
+            azimuth,
+            rng_m,
+            elevation_deg=float(self.p["elevation_deg"]),
+            radial_width_deg=width,
+            gate_width_m=float(self.p["gate_width_m"]),
+            nyquist_velocity_ms=float("nan"),
+            polarimetric=1,
+            source=self.type_name or type(self).__name__,
+            time_coverage_start="2000-01-01T00:00:00Z",
+            latitude=0.0,
+            longitude=0.0,
+            altitude=0.0,
+            instrument_name="synthetic",
         )
         return {"truth": ds}
 
@@ -87,10 +81,6 @@ class CoreScene(UniformScene):
     Inside the azimuth and range box of the core the reflectivity is ``core_dbz``; everywhere
     else it is ``reflectivity_dbz`` (for example 60 dBZ next to 0 dBZ). The other moments are
     uniform.
-
-    Outputs
-    -------
-    truth : truth_sweep
     """
 
     reflectivity_dbz = Param(

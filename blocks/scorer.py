@@ -11,16 +11,16 @@ from pasim_graph import Block, Chunk, Input, Output, Param
 
 from .angles import circular_difference, nearest_radial
 from .cf import cf_attributes
-from .signals import BEAMS, MOMENTS, NOISE_POWER, SCORES, SIGNAL_POWER, TRUTH
+from .signals import BEAMS, MOMENT_UNITS, MOMENTS, NOISE_POWER, SCORES, SIGNAL_POWER, TRUTH
 
 #: NEXRAD data-quality requirements (paper Table 3): bias, standard deviation, units.
 REQUIREMENTS = {
-    "DBZH": (1.0, 1.0, "dB"),
-    "VRADH": (1.0, 1.0, "m/s"),
-    "WRADH": (1.0, 1.0, "m/s"),
-    "ZDR": (0.1, 0.2, "dB"),
-    "RHOHV": (0.005, 0.01, "1"),
-    "PHIDP": (1.0, 2.0, "deg"),
+    "DBZH": (1.0, 1.0),
+    "VRADH": (1.0, 1.0),
+    "WRADH": (1.0, 1.0),
+    "ZDR": (0.1, 0.2),
+    "RHOHV": (0.005, 0.01),
+    "PHIDP": (1.0, 2.0),
 }
 
 
@@ -32,20 +32,6 @@ class NexradScorer(Block):
     the estimate and the truth of that moment exist. Velocity is differenced on the circle of
     the simulated radar's Nyquist interval, phi_DP on 360 deg. ``pasim score`` reduces the
     errors to bias and standard deviation and judges them against paper Table 3.
-
-    Inputs
-    ------
-    moments : moments
-    truth : truth_sweep
-    signal_power : signal_power
-    noise_power : noise_power
-    beams : beams
-
-    Outputs
-    -------
-    scores : scores
-        ``truth_<moment>`` on the beam grid, ``SNRH`` (expected, dB) and ``error_<moment>``
-        (NaN where not scored); written to the volume.
     """
 
     moments = Input(MOMENTS, doc="estimated moments")
@@ -81,11 +67,17 @@ class NexradScorer(Block):
         ref = truth.isel(radial=nearest)
         n_est = est.sizes["range"]
         dbz_t = ref["DBZH"].values[:, :n_est]
+        blind = float(est.attrs["blind_range_m"])
         with np.errstate(invalid="ignore"):
-            scored = (dbz_t >= self.p["min_reflectivity_dbz"]) & (snr >= self.p["min_snr_db"])
+            scored = (
+                (dbz_t >= self.p["min_reflectivity_dbz"])
+                & (snr >= self.p["min_snr_db"])
+                & (est["range"].values >= blind)[None, :]
+            )
         rule = (
             f"truth DBZH >= {self.p['min_reflectivity_dbz']:g} dBZ and expected SNRH >= "
-            f"{self.p['min_snr_db']:g} dB; truth = the raw radial nearest each beam"
+            f"{self.p['min_snr_db']:g} dB, beyond the blind range ({blind:g} m); truth = the "
+            f"raw radial nearest each beam; calibration: {est.attrs['calibration']}"
         )
         dims = ("beam", "range")
         scored_attrs = {
@@ -108,7 +100,8 @@ class NexradScorer(Block):
             }
         )
         nyquist = est["nyquist_velocity"].values[:, None]
-        for name, (req_b, req_s, units) in REQUIREMENTS.items():
+        for name, (req_b, req_s) in REQUIREMENTS.items():
+            units = MOMENT_UNITS[name]
             if name not in est or name not in ref:
                 continue
             t = ref[name].values[:, :n_est].astype(np.float64)
@@ -125,7 +118,7 @@ class NexradScorer(Block):
             out[f"truth_{name}"] = (
                 dims,
                 t.astype(np.float32),
-                {**cf.var(name), "source": "truth"},
+                {**cf.var(name), "units": units, "source": "truth"},
             )
             out[f"error_{name}"] = (
                 dims,

@@ -6,29 +6,197 @@ library declares each signal once here and every block uses the same declaration
 
 from __future__ import annotations
 
-from pasim_graph import DATASET, PortType
+from pasim_graph import DATASET, Attr, PortType, Schema, Var
 
 SPEED_OF_LIGHT = 299_792_458.0  # m/s
 BOLTZMANN = 1.380_649e-23  # J/K
 T0_K = 290.0  # reference temperature of the noise figure
 KW2 = 0.93  # |K_w|^2 of liquid water at S band, as NEXRAD uses
 
-#: The truth fields on their own polar grid (the whole sweep; radial x gate).
-TRUTH = PortType("truth_sweep", DATASET, ("radial", "gate"), "cfradial")
+#: Units of the six moments, as the truth and the estimates carry them (CF/UDUNITS strings).
+MOMENT_UNITS = {
+    "DBZH": "dBZ",
+    "ZDR": "dB",
+    "RHOHV": "1",
+    "PHIDP": "degrees",
+    "VRADH": "m s-1",
+    "WRADH": "m s-1",
+}
+_MOMENT_DOCS = {
+    "DBZH": "reflectivity factor, H",
+    "ZDR": "differential reflectivity",
+    "RHOHV": "co-polar correlation coefficient",
+    "PHIDP": "differential phase",
+    "VRADH": "radial velocity, positive away",
+    "WRADH": "Doppler spectrum width",
+}
+
+
+def _moments(dims: tuple[str, ...], required: tuple[str, ...] = (), prefix: str = "") -> dict:
+    return {
+        f"{prefix}{k}": Var("float32", dims, u, _MOMENT_DOCS[k], required=k in required)
+        for k, u in MOMENT_UNITS.items()
+    }
+
+
+_SITE = {
+    "latitude": Attr("float", "site latitude (deg north)"),
+    "longitude": Attr("float", "site longitude (deg east)"),
+    "altitude": Attr("float", "site altitude (m)"),
+}
+
+#: The truth fields on their own polar grid (the whole sweep; radial x gate). Only DBZH is
+#: required: a legacy single-polarisation file has no ZDR, RHOHV, PHIDP.
+TRUTH = PortType(
+    "truth_sweep",
+    DATASET,
+    ("radial", "gate"),
+    "cfradial",
+    Schema(
+        {
+            **_moments(("radial", "gate"), required=("DBZH",)),
+            "azimuth": Var("float64", ("radial",), "degrees", "radial azimuths, clockwise"),
+            "range": Var("float64", ("gate",), "meters", "gate centre ranges"),
+        },
+        {
+            "elevation_deg": Attr("float", "elevation of the sweep"),
+            "radial_width_deg": Attr("float", "azimuth spacing of the radials"),
+            "gate_width_m": Attr("float", "range spacing of the gates"),
+            "nyquist_velocity_ms": Attr("float", "Nyquist velocity of the truth (NaN: none)"),
+            "polarimetric": Attr("int", "1 when ZDR, RHOHV and PHIDP are all present"),
+            "source": Attr("str", "where the truth came from"),
+            "instrument_name": Attr("str", "radar that measured it"),
+            "time_coverage_start": Attr("str", "ISO time of the sweep start"),
+            **_SITE,
+        },
+    ),
+)
 #: Beam geometry of a chunk: azimuth, elevation, time, PRT and pulses per dwell.
-BEAMS = PortType("beams", DATASET, ("beam",), "deg")
+BEAMS = PortType(
+    "beams",
+    DATASET,
+    ("beam",),
+    "deg",
+    Schema(
+        {
+            "azimuth": Var("float64", ("beam",), "degrees", "beam azimuth, clockwise from north"),
+            "elevation": Var("float64", ("beam",), "degrees", "beam elevation"),
+            "time": Var("datetime64", ("beam",), "", "start of each dwell"),
+            "prt": Var("float64", ("beam",), "seconds", "pulse repetition time"),
+            "pulses": Var("integer", (), "", "pulses per dwell (M)"),
+            "sweep_number": Var("integer", (), "", "sweep index in the volume"),
+            "sweep_mode": Var("str", (), "", "CfRadial sweep mode"),
+            "sweep_fixed_angle": Var("float64", (), "degrees", "nominal elevation"),
+            "time_coverage_start": Var("str", (), "", "ISO time of the scan start"),
+            "time_coverage_end": Var("str", (), "", "ISO time of the scan end"),
+            "volume_number": Var("integer", (), "", "volume index"),
+            "platform_type": Var("str", (), "", "CfRadial platform type"),
+            "instrument_type": Var("str", (), "", "CfRadial instrument type"),
+            "latitude": Var("float64", (), "degrees_north", "site latitude"),
+            "longitude": Var("float64", (), "degrees_east", "site longitude"),
+            "altitude": Var("float64", (), "meters", "site altitude"),
+        }
+    ),
+)
 #: A sampled complex envelope (transmit pulse or reference), with its sample rate.
-PULSE = PortType("pulse", DATASET, ("sample",), "sqrt(W)")
-#: Range weighting after the matched filter: power weight against range offset.
-RANGE_RESPONSE = PortType("range_response", DATASET, ("offset",), "1")
+PULSE = PortType(
+    "pulse",
+    DATASET,
+    ("sample",),
+    "sqrt(W)",
+    Schema(
+        {
+            "envelope": Var("complex128", ("sample",), "1", "complex envelope, 1 = peak power"),
+            "time": Var("float64", ("sample",), "s", "sample times from the pulse start"),
+        },
+        {
+            "sample_rate_hz": Attr("float", "sample rate of the envelope"),
+            "waveform": Attr("str", "name of the waveform", required=False),
+            "width_s": Attr("float", "pulse length", required=False),
+        },
+    ),
+)
+#: The receive filter and what it makes of the radiated pulse: the range response a gate sees
+#: (the filter output for a point target against range offset), the radiated pulse and the
+#: filter's impulse response, all at one sample rate.
+RANGE_RESPONSE = PortType(
+    "range_response",
+    DATASET,
+    ("offset",),
+    "1",
+    Schema(
+        {
+            "voltage": Var(
+                "complex128", ("offset",), "1", "filter output for a point target, y(offset)"
+            ),
+            "power_weight": Var("float64", ("offset",), "1", "|y|^2, the range weighting"),
+            "offset_m": Var("float64", ("offset",), "m", "range offset beyond the gate"),
+            "transmitted": Var(
+                "complex128", ("sample",), "1", "radiated envelope (1 = peak power)"
+            ),
+            "taps": Var(
+                "complex128", ("tap",), "1", "receive filter impulse response, at sample_rate_hz"
+            ),
+        },
+        {
+            "sample_rate_hz": Attr("float", "sample rate of pulse, taps and offsets"),
+            "noise_bandwidth_hz": Attr("float", "noise bandwidth of the filter (fs sum|h|^2)"),
+            "blind_range_m": Attr("float", "range hidden while transmitting (c T / 2)"),
+        },
+    ),
+)
 #: One-way power patterns per beam and polarisation on an angular grid around the beam axis.
 PATTERN = PortType(
-    "pattern", DATASET, ("beam", "polarization", "elevation_offset", "azimuth_offset"), "1"
+    "pattern",
+    DATASET,
+    ("beam", "polarization", "elevation_offset", "azimuth_offset"),
+    "1",
+    Schema(
+        {
+            "power": Var(
+                "floating",
+                ("beam", "polarization", "elevation_offset", "azimuth_offset"),
+                "1",
+                "one-way power pattern over the peak gain",
+            ),
+            "calibration_solid_angle_sr": Var(
+                "float64",
+                ("beam", "polarization"),
+                "sr",
+                "two-way solid angle the radar constant of each beam is computed with",
+            ),
+            "polarization": Var("str", ("polarization",), "", "H, V"),
+            "azimuth_offset_deg": Var(
+                "float64", ("azimuth_offset",), "degrees", "azimuth offset from the beam axis"
+            ),
+            "elevation_offset_deg": Var(
+                "float64", ("elevation_offset",), "degrees", "elevation offset from the axis"
+            ),
+        },
+        {
+            "gain_db": Attr("float", "peak gain (dBi)"),
+            "two_way_solid_angle_sr_H": Attr("float", "boresight two-way solid angle, H (sr)"),
+            "two_way_solid_angle_sr_V": Attr("float", "boresight two-way solid angle, V (sr)"),
+            "antenna": Attr("str", "antenna model"),
+            "calibration": Attr("str", "how beams are calibrated: boresight or per_beam"),
+        },
+    ),
 )
 #: The I/Q cube of a chunk of beams.
 IQ = PortType("iq", "complex64", ("beam", "range", "pulse", "polarization"), "sqrt(W)")
 #: The H and V I/Q cubes as stored in the output volume.
-IQ_CUBE = PortType("iq_cube", DATASET, ("beam", "range", "pulse"), "sqrt(W)")
+IQ_CUBE = PortType(
+    "iq_cube",
+    DATASET,
+    ("beam", "range", "pulse"),
+    "sqrt(W)",
+    Schema(
+        {
+            f"IQ_{p}": Var("complex64", ("beam", "range", "pulse"), "sqrt(W)", f"{p} channel I/Q")
+            for p in ("H", "V")
+        }
+    ),
+)
 #: Expected (noise-free) signal power per gate and polarisation.
 SIGNAL_POWER = PortType("signal_power", "float32", ("beam", "range", "polarization"), "W")
 #: Expected (noise-free) correlations of the echo per gate: lag-0 and lag-1 of H and V and the
@@ -39,11 +207,69 @@ ECHO_CORRELATIONS = PortType(
 #: Receiver noise power per gate and polarisation, at the matched-filter output.
 NOISE_POWER = PortType("noise_power", "float64", ("beam", "range", "polarization"), "W")
 #: Radar constant per beam and polarisation, with the gate ranges.
-CALIBRATION = PortType("calibration", DATASET, ("beam", "range", "polarization"), "dB")
+CALIBRATION = PortType(
+    "calibration",
+    DATASET,
+    ("beam", "range", "polarization"),
+    "dB",
+    Schema(
+        {
+            "radar_constant_db": Var(
+                "float64",
+                ("beam", "polarization"),
+                "dB",
+                "10 log10 of echo power x r^2 for 1 mm^6 m^-3, per beam and channel",
+            ),
+            "range": Var("float64", ("range",), "meters", "gate centre ranges"),
+            "polarization": Var("str", ("polarization",), "", "H, V"),
+        },
+        {
+            "wavelength_m": Attr("float", "radar wavelength"),
+            "prt_s": Attr("float", "pulse repetition time"),
+            "dual_polarization": Attr("int", "1 when the V channel carries an echo"),
+            "blind_range_m": Attr("float", "gates nearer than this are not estimated"),
+            "calibration": Attr("str", "how beams are calibrated: boresight or per_beam"),
+        },
+    ),
+)
 #: Estimated moments on the beam x range grid, CfRadial names and attributes.
-MOMENTS = PortType("moments", DATASET, ("beam", "range"), "cfradial")
+MOMENTS = PortType(
+    "moments",
+    DATASET,
+    ("beam", "range"),
+    "cfradial",
+    Schema(
+        {
+            **_moments(("beam", "range")),
+            "range": Var("float64", ("range",), "meters", "gate centre ranges"),
+            "nyquist_velocity": Var("float64", ("beam",), "m s-1", "Nyquist velocity"),
+        },
+        {
+            "blind_range_m": Attr("float", "gates nearer than this are not estimated"),
+            "calibration": Attr("str", "how beams were calibrated: boresight or per_beam"),
+        },
+    ),
+)
 #: Errors of each moment against truth, for the scores.
-SCORES = PortType("scores", DATASET, ("beam", "range"), "cfradial")
+SCORES = PortType(
+    "scores",
+    DATASET,
+    ("beam", "range"),
+    "cfradial",
+    Schema(
+        {
+            "SNRH": Var("float32", ("beam", "range"), "dB", "expected SNR, H (noise-free echo)"),
+            "scored": Var("int8", ("beam", "range"), "", "1 where the gate meets the rule"),
+            **_moments(("beam", "range"), prefix="truth_"),
+            **{
+                f"error_{k}": Var(
+                    "float32", ("beam", "range"), u, f"{k} estimate minus truth", required=False
+                )
+                for k, u in MOMENT_UNITS.items()
+            },
+        }
+    ),
+)
 
 POLARIZATIONS = ("H", "V")
 CORRELATION_PRODUCTS = ("R0_H", "R0_V", "R1_H", "R1_V", "R0_HV")

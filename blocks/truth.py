@@ -11,7 +11,24 @@ import xarray as xr
 from pasim_graph import Block, Chunk, Output, Param, RunNote
 
 from . import DEFAULT_SCENE
-from .signals import TRUTH
+from .signals import MOMENT_UNITS, TRUTH
+
+
+def truth_dataset(
+    fields: dict[str, np.ndarray], azimuth_deg: np.ndarray, range_m: np.ndarray, **attrs: Any
+) -> xr.Dataset:
+    """The truth port's Dataset: moments on (radial, gate) with their units, and the grid."""
+    return xr.Dataset(
+        {
+            name: (("radial", "gate"), np.asarray(v, np.float32), {"units": MOMENT_UNITS[name]})
+            for name, v in fields.items()
+        },
+        coords={
+            "azimuth": ("radial", np.asarray(azimuth_deg, np.float64), {"units": "degrees"}),
+            "range": ("gate", np.asarray(range_m, np.float64), {"units": "meters"}),
+        },
+        attrs=attrs,
+    )
 
 
 class NexradTruth(Block):
@@ -27,14 +44,6 @@ class NexradTruth(Block):
     A truth without ZDR, RHOHV and PHIDP (a legacy single-polarisation file) has none of
     those variables, ``polarimetric = 0``, and the run gets a note that it is single
     polarisation.
-
-    Outputs
-    -------
-    truth : truth_sweep
-        DBZH, ZDR, RHOHV, PHIDP, VRADH, WRADH as far as the file has them (radial x gate,
-        NaN where no data), with the radial azimuths, gate ranges, radial width, site and
-        ``polarimetric`` (1 when ZDR, RHOHV and PHIDP are all present, else 0) as
-        attributes.
     """
 
     role = "truth"
@@ -122,23 +131,16 @@ class NexradTruth(Block):
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         sweep = chunk.resource
-        ds = xr.Dataset(
-            {
-                name: (("radial", "gate"), np.asarray(values, dtype=np.float32))
-                for name, values in sweep.fields.items()
-            },
-            coords={
-                "azimuth": ("radial", np.asarray(sweep.azimuth_deg, dtype=np.float64)),
-                "range": ("gate", np.asarray(sweep.range_m, dtype=np.float64)),
-            },
-            attrs={
-                "elevation_deg": float(sweep.elevation_deg),
-                "radial_width_deg": float(sweep.radial_width_deg),
-                "gate_width_m": float(sweep.gate_width_m),
-                "nyquist_velocity_ms": float(sweep.nyquist_velocity_ms),
-                "polarimetric": int(sweep.polarimetric),
-                "source": str(sweep.source),
-                **{k: v for k, v in sweep.site.items()},
-            },
+        ds = truth_dataset(
+            sweep.fields,
+            sweep.azimuth_deg,
+            sweep.range_m,
+            elevation_deg=float(sweep.elevation_deg),
+            radial_width_deg=float(sweep.radial_width_deg),
+            gate_width_m=float(sweep.gate_width_m),
+            nyquist_velocity_ms=float(sweep.nyquist_velocity_ms),
+            polarimetric=int(sweep.polarimetric),
+            source=str(sweep.source),
+            **sweep.site,
         )
         return {"truth": ds}

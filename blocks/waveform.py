@@ -16,20 +16,14 @@ def pulse_dataset(envelope: np.ndarray, sample_rate_hz: float, **attrs: Any) -> 
     """Wrap a complex envelope (peak amplitude 1 = peak power) as a pulse signal."""
     n = envelope.size
     return xr.Dataset(
-        {"envelope": ("sample", envelope.astype(np.complex128))},
-        coords={"time": ("sample", np.arange(n) / sample_rate_hz)},
+        {"envelope": ("sample", envelope.astype(np.complex128), {"units": "1"})},
+        coords={"time": ("sample", np.arange(n) / sample_rate_hz, {"units": "s"})},
         attrs={"sample_rate_hz": float(sample_rate_hz), **attrs},
     )
 
 
 class RectangularPulse(Block):
-    """A rectangular pulse of constant amplitude and phase (no pulse compression).
-
-    Outputs
-    -------
-    pulse : pulse
-        Complex envelope with peak amplitude 1 sampled at ``sample_rate_hz``.
-    """
+    """A rectangular pulse of constant amplitude and phase (no pulse compression)."""
 
     pulse = Output(PULSE, doc="transmit envelope, peak amplitude 1")
 

@@ -501,28 +501,6 @@ class WeatherChannel(Block):
 
     Each beam draws from its own random streams (H and V apart). A truth without ZDR, RHOHV
     and PHIDP (single polarisation), or a run that asks for none of them, skips the V channel.
-
-    Inputs
-    ------
-    truth : truth_sweep
-    beams : beams
-    pattern : pattern
-    range_response : range_response
-
-    Outputs
-    -------
-    iq : iq
-        Noise-free echo voltages, beam x range x pulse x polarisation, sqrt(W); no pulses at
-        the ``expected`` level.
-    signal_power : signal_power
-        Expected echo power per gate (W), noise-free.
-    echo_correlations : echo_correlations
-        Expected lag-0 and lag-1 correlations of H and V and the lag-0 H-V cross-correlation.
-    calibration : calibration
-        Radar constant per beam and polarisation, and the gate ranges. It is the boresight
-        (broadside) constant for every beam: scan loss and the H/V mismatch of a steered array
-        are deliberately left uncalibrated, as in the paper (its planar array shows a ZDR bias
-        growing off broadside).
     """
 
     truth = Input(TRUTH, doc="truth sweep")
@@ -644,20 +622,26 @@ class WeatherChannel(Block):
                 self._tones(iq[i], draw)
             self._per_cell(iq[i], draw)
 
-        omega_bs = np.array([pattern.attrs[f"two_way_solid_angle_sr_{p}"] for p in POLARIZATIONS])
-        constant_db = 10 * np.log10(k0 * omega_bs * r_k.sum())
+        omega_cal = pattern["calibration_solid_angle_sr"].values  # beam x polarisation
+        constant_db = 10 * np.log10(k0 * omega_cal * r_k.sum())
         calibration = xr.Dataset(
             {
                 "radar_constant_db": (
                     ("beam", "polarization"),
-                    np.broadcast_to(constant_db, (n_b, 2)).copy(),
+                    constant_db.astype(np.float64),
+                    {"units": "dB"},
                 )
             },
-            coords={"range": ("range", rng_m), "polarization": list(POLARIZATIONS)},
+            coords={
+                "range": ("range", rng_m, {"units": "meters"}),
+                "polarization": list(POLARIZATIONS),
+            },
             attrs={
                 "wavelength_m": lam,
                 "prt_s": prt,
                 "dual_polarization": int(all(k in truth for k in POLARIMETRIC_FIELDS)),
+                "blind_range_m": float(response.attrs["blind_range_m"]),
+                "calibration": str(pattern.attrs["calibration"]),
             },
         )
         power = corr[..., :2].real.astype(np.float32)

@@ -6,13 +6,14 @@ radar physics lives in the block library (``pasim_blocks``) and in plugin packag
 
 from .block import Block, Chunk, RunNote
 from .graph import Graph, GraphError, load, validate
-from .ports import BEAM_DIM, DATASET, Input, Output, Param, PortType
+from .ports import BEAM_DIM, DATASET, Attr, Input, Output, Param, PortType, Schema, Var
 
 __version__ = "0.1.0"
 
 __all__ = [
     "BEAM_DIM",
     "DATASET",
+    "Attr",
     "Block",
     "Chunk",
     "Graph",
@@ -22,6 +23,8 @@ __all__ = [
     "Param",
     "PortType",
     "RunNote",
+    "Schema",
+    "Var",
     "__version__",
     "load",
     "validate",

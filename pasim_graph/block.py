@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import zlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -9,7 +10,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .ports import Input, Output, Param
+from .ports import DATASET, Input, Output, Param
 
 
 class RunNote(UserWarning):
@@ -180,6 +181,33 @@ class Block:
         raise NotImplementedError
 
     @classmethod
+    def interface_problems(cls) -> list[tuple[str, str]]:
+        """Faults in the class's own declarations, as ``(item, message)`` pairs.
+
+        Every port that carries a Dataset declares its schema, and the fields an output offers
+        to ``--outputs`` are variables of that schema.
+        """
+        out = []
+        ports: list[Input | Output] = [*cls.inputs.values(), *cls.outputs.values()]
+        for port in ports:
+            side = "input" if isinstance(port, Input) else "output"
+            if port.type.dtype == DATASET and port.type.schema is None:
+                out.append(
+                    (f"port '{port.name}'", f"{side} carries a dataset but declares no schema")
+                )
+        for o in cls.outputs.values():
+            schema = o.type.schema
+            missing = [f for f in o.fields if schema is None or f not in schema.variables]
+            if missing:
+                out.append(
+                    (
+                        f"port '{o.name}'",
+                        f"fields {', '.join(missing)} are not variables of its schema",
+                    )
+                )
+        return out
+
+    @classmethod
     def runs_per_chunk(cls) -> bool:
         """True when the block must run for every chunk of beams."""
         ports: list[Input | Output] = [*cls.inputs.values(), *cls.outputs.values()]
@@ -197,7 +225,7 @@ class Block:
             "type": cls.type_name,
             "class": f"{cls.__module__}.{cls.__qualname__}",
             "doc": cls.doc(),
-            "description": (cls.__doc__ or "").strip(),
+            "description": inspect.cleandoc(cls.__doc__ or ""),
             "role": cls.role,
             "beam_source": cls.beam_source,
             "fidelity_ladder": [{"label": k, "params": dict(v)} for k, v in cls.fidelity_ladder],

@@ -7,6 +7,7 @@ culprit and exits with code 2, never a traceback.
 from __future__ import annotations
 
 import argparse
+import inspect
 import json
 import math
 import sys
@@ -63,33 +64,50 @@ def _graph_and_overrides(args: argparse.Namespace) -> tuple[Graph, dict[str, Any
             overrides.setdefault(f"{block}.path", str(args.truth))
     if getattr(args, "sector", None):
         block = by_role("scan", "--sector")
-        try:
-            a0, a1 = (float(x) for x in args.sector.split(":"))
-        except ValueError:
-            problems.append(
-                Problem(
-                    spec.file,
-                    0,
-                    "",
-                    "--sector",
-                    f"expected AZ0:AZ1 in degrees, found {args.sector!r}",
-                )
-            )
-        else:
-            if block:
-                overrides[f"{block}.azimuth_start_deg"] = a0
-                overrides[f"{block}.azimuth_stop_deg"] = a1
+        sector, problem = parse_sector(args.sector)
+        if problem:
+            problems.append(Problem(spec.file, 0, "", f"--sector {args.sector}", problem))
+        elif block and sector:
+            overrides[f"{block}.azimuth_start_deg"] = sector[0]
+            overrides[f"{block}.azimuth_stop_deg"] = sector[1]
     try:
         graph = validate(spec, overrides)
     except GraphError as exc:
         raise GraphError(exc.problems + problems) from None
     if problems:
         raise GraphError(problems)
-    sector = _truth_sector(graph)
-    if sector:
-        overrides |= sector
+    truth_sector = _truth_sector(graph)
+    if truth_sector:
+        overrides |= truth_sector
         graph = validate(spec, overrides)
     return graph, overrides
+
+
+def parse_sector(text: str) -> tuple[tuple[float, float] | None, str | None]:
+    """``AZ0:AZ1`` in degrees clockwise, as (start, stop) in [0, 360], or a problem.
+
+    Angles outside 0-360 are taken modulo 360, so ``-10:10`` is the 20 deg sector through
+    north (``350:10``); ``0:360`` is the full circle; equal ends (``10:10``) are refused,
+    since they name no sector.
+    """
+    try:
+        a0, a1 = (float(x) for x in text.split(":"))
+    except ValueError:
+        return None, "expected AZ0:AZ1 in degrees clockwise (e.g. 240:330, or 350:10 through north)"
+    if not (math.isfinite(a0) and math.isfinite(a1)):
+        return None, "expected finite angles in degrees"
+    if a0 == a1:
+        return None, (
+            f"the sector starts and stops at {a0:g} deg and holds no beam; for the full circle "
+            "give 0:360"
+        )
+    if a1 - a0 > 360.0:
+        return None, f"the sector spans {a1 - a0:g} deg, more than the full circle (0:360)"
+    start = a0 % 360.0
+    stop = a1 % 360.0
+    if stop == 0.0 and a1 != 0.0 and start == 0.0:
+        stop = 360.0  # 0:360 and -360:0 are the full circle
+    return (start, stop), None
 
 
 def _truth_sector(graph: Graph) -> dict[str, Any]:
@@ -133,32 +151,81 @@ def cmd_blocks(args: argparse.Namespace) -> int:
     blocks = registry.all_blocks()
     if args.json:
         print(json.dumps([cls.interface() for cls in blocks.values()], indent=2, default=str))
-        return 0
-    for name, cls in blocks.items():
-        print(f"{name}  ({cls.__name__}) {cls.doc()}")
-        for p in cls.inputs.values():
-            print(f"    in   {p.name}: {p.type.describe()}")
-        for o in cls.outputs.values():
-            print(f"    out  {o.name}: {o.type.describe()}")
-        for q in cls.params.values():
-            default = "required" if q.required else repr(q.default)
-            print(f"    param {q.name} = {default} {q.units}  {q.doc}".rstrip())
+    elif args.markdown:
+        print(blocks_markdown(blocks), end="")
+    else:
+        for name, cls in blocks.items():
+            print(f"{name}  ({cls.__name__}) {cls.doc()}")
+            for line in _interface_lines(cls):
+                print(f"    {line}")
     return 0
 
 
+def _param_text(q: Any) -> str:
+    """A parameter's default, units, bounds or choices and doc, on one line."""
+    default = "required" if q.required else repr(q.default)
+    units = f" {q.units}" if q.units else ""
+    limits = []
+    if q.choices is not None:
+        limits.append("one of " + ", ".join(repr(c) for c in q.choices))
+    if q.min is not None and q.max is not None:
+        limits.append(f"{q.min:g} to {q.max:g}{units}")
+    elif q.min is not None:
+        limits.append(f">= {q.min:g}{units}")
+    elif q.max is not None:
+        limits.append(f"<= {q.max:g}{units}")
+    bounds = f" ({'; '.join(limits)})" if limits else ""
+    return f"{q.name} = {default}{units} {q.type}{bounds}  {q.doc}".rstrip()
+
+
+def _interface_lines(cls: Any) -> list[str]:
+    out = []
+    for p in cls.inputs.values():
+        optional = "" if p.required else " (optional)"
+        out.append(f"in    {p.name}: {p.type.describe()}{optional}  {p.doc}".rstrip())
+        out += [f"        {line}" for line in (p.type.schema.lines() if p.type.schema else [])]
+    for o in cls.outputs.values():
+        stored = f" [stored: {o.store}]" if o.store else ""
+        out.append(f"out   {o.name}: {o.type.describe()}{stored}  {o.doc}".rstrip())
+        out += [f"        {line}" for line in (o.type.schema.lines() if o.type.schema else [])]
+    out += [f"param {_param_text(q)}" for q in cls.params.values()]
+    return out
+
+
+def blocks_markdown(blocks: dict[str, Any]) -> str:
+    """The block reference (docs/blocks.md), written from the declarations alone."""
+    out = [
+        "# Block reference",
+        "",
+        "Written by `pasim blocks --markdown` from the blocks' declarations (ports, schemas, "
+        "parameters); do not edit by hand.",
+        "",
+    ]
+    for name, cls in blocks.items():
+        out += [f"## `{name}`", "", inspect.cleandoc(cls.__doc__ or ""), "", "```"]
+        out += _interface_lines(cls)
+        out += ["```", ""]
+    return "\n".join(out)
+
+
 def cmd_run(args: argparse.Namespace) -> int:
-    from .dask_executor import DaskExecutor, ResumeError
+    from .dask_executor import (
+        DaskExecutor,
+        ResourceError,
+        ResumeError,
+        SchedulerError,
+        check_scheduler,
+    )
     from .executor import BlockError, RunOptions
-    from .store import StoreExistsError, open_volume, summarize
+    from .store import StoreError, StoreExistsError, open_volume, summarize
 
     graph = _graph(args)
     out = Path(args.out)
-    if out.exists() and not (args.overwrite or args.resume):
-        raise UserError(f"{out} exists; pass --resume to complete it or --overwrite to replace it")
-    if args.chunk < 1:
-        raise UserError(f"--chunk must be at least 1 beam, found {args.chunk}")
-    if args.workers is not None and args.workers < 1:
-        raise UserError(f"--workers must be at least 1, found {args.workers}")
+    if args.scheduler:
+        try:
+            check_scheduler(args.scheduler)
+        except SchedulerError as exc:
+            raise UserError(str(exc)) from None
     options = RunOptions(
         seed=args.seed,
         chunk_beams=args.chunk,
@@ -195,13 +262,14 @@ def cmd_run(args: argparse.Namespace) -> int:
             attrs,
             resume=args.resume,
             overwrite=args.overwrite,
+            command=" ".join(["pasim", *sys.argv[1:]]) if sys.argv else "pasim run",
             log=lambda s: print(s, file=sys.stderr),
         )
     except BlockError as exc:
         if args.debug:
             raise
         raise UserError(f"{args.graph}: {exc} (rerun with --debug for the traceback)") from None
-    except (StoreExistsError, ResumeError) as exc:
+    except (StoreError, StoreExistsError, ResumeError, ResourceError) as exc:
         raise UserError(str(exc)) from None
     dt = time.perf_counter() - t0
     print(
@@ -237,7 +305,15 @@ def cmd_tradeoff(args: argparse.Namespace) -> int:
     from .tradeoff import TradeoffError, format_table, ladder, ladder_keys, tradeoff
 
     graph, overrides = _graph_and_overrides(args)
-    labels = [x.strip() for x in args.levels.split(",")] if args.levels else None
+    labels = None
+    if args.levels is not None:
+        labels = [x.strip() for x in args.levels.split(",") if x.strip()]
+        if not labels:
+            try:
+                known = ", ".join(r.label for r in ladder(graph))
+            except TradeoffError as exc:
+                raise UserError(f"{args.graph}: {exc}") from None
+            raise UserError(f"--levels: no level given; the levels of this graph are {known}")
     try:
         keys = ladder_keys(ladder(graph))
         rows = tradeoff(
@@ -328,23 +404,27 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--version", action="version", version=f"pasim-graph {__version__}")
     sub = ap.add_subparsers(dest="command", required=True)
 
-    run = sub.add_parser("run", help="run a graph and write a Zarr radar volume")
-    run.add_argument("graph")
-    run.add_argument("--truth", help="truth radar file (NEXRAD Level-II)")
-    run.add_argument("--sector", help="azimuth sector AZ0:AZ1 in degrees, clockwise")
-    run.add_argument(
-        "--set",
-        action="append",
-        metavar="BLOCK.PARAM=VALUE",
-        help="override a block parameter (repeatable)",
+    run = sub.add_parser(
+        "run",
+        help="run a graph and write a Zarr radar volume",
+        description="Run a graph over its scan and write the estimated moments, the truth on "
+        "the same grid and the errors to a CfRadial-2 Zarr store; print the scores.",
     )
-    run.add_argument("--seed", type=int, default=0)
+    run.add_argument("graph", help="graph file (YAML), e.g. graphs/generic_radar.yaml")
+    add_graph_arguments(run)
+    run.add_argument(
+        "--seed",
+        type=_seed,
+        default=0,
+        help="random seed, a whole number >= 0 (default 0): the same graph, seed and sector "
+        "give the same numbers whatever the chunking",
+    )
     run.add_argument(
         "--chunk",
-        type=int,
+        type=_positive("--chunk"),
         default=8,
         metavar="BEAMS",
-        help="beams per chunk (does not change the results)",
+        help="beams per chunk, >= 1 (default 8; does not change the results)",
     )
     run.add_argument("--save-iq", action="store_true", help="also store the H and V I/Q cubes")
     run.add_argument(
@@ -352,23 +432,36 @@ def parser() -> argparse.ArgumentParser:
         metavar="FIELD[,FIELD...]",
         help="compute and store only these fields (e.g. DBZH); blocks skip the rest",
     )
-    run.add_argument("--out", required=True, help="output store (.zarr)")
-    run.add_argument("--overwrite", action="store_true", help="replace an existing store")
     run.add_argument(
+        "--out",
+        required=True,
+        metavar="STORE",
+        help="output store, a directory (e.g. run.zarr); must not exist, be empty, or be a "
+        "store this program wrote (with --resume or --overwrite)",
+    )
+    again = run.add_mutually_exclusive_group()
+    again.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace an existing store of this program's (anything else is refused)",
+    )
+    again.add_argument(
         "--resume",
         action="store_true",
         help="complete an interrupted run (same graph, seed, chunk size)",
     )
-    run.add_argument(
+    where = run.add_mutually_exclusive_group()
+    where.add_argument(
         "--workers",
-        type=int,
+        type=_positive("--workers"),
         metavar="N",
         help="run on a dask.distributed LocalCluster of N worker processes",
     )
-    run.add_argument(
+    where.add_argument(
         "--scheduler",
         metavar="ADDRESS",
-        help="run on an existing dask.distributed cluster (tcp://host:8786)",
+        help="'threads' (default: dask threads in this process), 'sync' (one chunk after "
+        "another, for debugging) or an existing dask.distributed scheduler (tcp://host:8786)",
     )
     run.add_argument(
         "--progress", action="store_true", help="show a progress bar (shown anyway on a terminal)"
@@ -377,35 +470,117 @@ def parser() -> argparse.ArgumentParser:
     run.set_defaults(func=cmd_run)
 
     val = sub.add_parser("validate", help="check a graph without running it")
-    val.add_argument("graph")
-    val.add_argument("--set", action="append", metavar="BLOCK.PARAM=VALUE")
-    val.add_argument("--truth")
-    val.add_argument("--sector")
-    val.add_argument("--json", action="store_true")
+    val.add_argument("graph", help="graph file (YAML)")
+    add_graph_arguments(val)
+    val.add_argument("--json", action="store_true", help="print the result as JSON")
     val.set_defaults(func=cmd_validate)
 
     blk = sub.add_parser("blocks", help="list the registered block types")
-    blk.add_argument("--json", action="store_true")
+    fmt = blk.add_mutually_exclusive_group()
+    fmt.add_argument("--json", action="store_true", help="print the interfaces as JSON")
+    fmt.add_argument(
+        "--markdown", action="store_true", help="print the block reference as Markdown"
+    )
     blk.set_defaults(func=cmd_blocks)
 
     tr = sub.add_parser(
         "tradeoff", help="run a graph at every fidelity level: time, memory and error of each"
     )
-    tr.add_argument("graph")
-    tr.add_argument("--truth", help="truth radar file (NEXRAD Level-II)")
-    tr.add_argument("--sector", help="azimuth sector AZ0:AZ1 in degrees, clockwise")
-    tr.add_argument("--set", action="append", metavar="BLOCK.PARAM=VALUE")
-    tr.add_argument("--seed", type=int, default=0)
-    tr.add_argument("--chunk", type=int, default=8, metavar="BEAMS")
-    tr.add_argument("--levels", metavar="LEVEL[,LEVEL...]", help="run only these levels")
+    tr.add_argument("graph", help="graph file (YAML)")
+    add_graph_arguments(tr)
+    tr.add_argument("--seed", type=_seed, default=0, help="random seed, >= 0 (default 0)")
+    tr.add_argument(
+        "--chunk", type=_positive("--chunk"), default=8, metavar="BEAMS", help="beams per chunk"
+    )
+    tr.add_argument(
+        "--levels",
+        metavar="LEVEL[,LEVEL...]",
+        help="run only these levels of the graph's fidelity ladder (for the weather channel: "
+        "expected, combined-40dB, combined, combined-f64, covariance, covariance-f64, "
+        "monte_carlo); default: all",
+    )
     tr.add_argument("--json", action="store_true", help="print a list of rows as JSON")
     tr.set_defaults(func=cmd_tradeoff)
 
     sc = sub.add_parser("score", help="print the error statistics stored in a run")
-    sc.add_argument("store")
-    sc.add_argument("--json", action="store_true")
+    sc.add_argument("store", help="a store written by `pasim run`")
+    sc.add_argument("--json", action="store_true", help="print the scores as JSON")
     sc.set_defaults(func=cmd_score)
+    _add_plugin_commands(sub)
     return ap
+
+
+def add_graph_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options that change a graph as it is read: ``--truth``, ``--sector``, ``--set``.
+
+    For commands of plugin packages too, which then get the graph with :func:`load_graph`.
+    """
+    parser.add_argument(
+        "--truth", metavar="FILE", help="truth radar file (NEXRAD Level-II) for the truth block"
+    )
+    parser.add_argument(
+        "--sector",
+        metavar="AZ0:AZ1",
+        help="azimuth sector in degrees clockwise for the scan block, e.g. 240:330; 350:10 "
+        "(or -10:10) passes through north, 0:360 is the full circle",
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        metavar="BLOCK.PARAM=VALUE",
+        help="override a block parameter (repeatable)",
+    )
+
+
+def load_graph(args: argparse.Namespace) -> Graph:
+    """The validated graph of a command's arguments (raises GraphError, printed as usual)."""
+    return _graph(args)
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, found {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(
+            f"the seed must be a whole number >= 0 (random streams are keyed by it), found {value}"
+        )
+    return value
+
+
+def _positive(option: str) -> Any:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, found {text!r}") from None
+        if value < 1:
+            raise argparse.ArgumentTypeError(f"{option} must be at least 1, found {value}")
+        return value
+
+    return parse
+
+
+def _add_plugin_commands(sub: Any) -> None:
+    """Subcommands that packages register in the ``pasim_graph.commands`` entry-point group.
+
+    Each entry point names an object with ``help`` (one line), ``configure(parser)`` and
+    ``run(args) -> int``; it raises :class:`UserError` for what the user can fix. The block
+    library's ``pasim waveform`` and ``pasim pattern`` come this way, so the engine never
+    imports it. A command that fails to load warns and is left out.
+    """
+    for name, command in registry.commands().items():
+        if name in sub.choices:
+            warnings.warn(
+                f"command {name!r} of a plugin package clashes with a built-in; ignored",
+                registry.PluginWarning,
+                stacklevel=2,
+            )
+            continue
+        parser = sub.add_parser(name, help=command.help, description=command.help)
+        command.configure(parser)
+        parser.set_defaults(func=command.run)
 
 
 def _show_warning(
@@ -416,8 +591,23 @@ def _show_warning(
     print(f"{label}: {message}", file=sys.stderr)
 
 
+def _join_negative_values(argv: list[str]) -> list[str]:
+    """``--sector -10:10`` as ``--sector=-10:10``: argparse would take the value for an option."""
+    out: list[str] = []
+    for i, arg in enumerate(argv):
+        if out and out[-1] == "--sector" and arg.startswith("-") and i > 0:
+            out[-1] = f"--sector={arg}"
+            continue
+        out.append(arg)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = parser().parse_args(argv)
+    argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv))
+    with warnings.catch_warnings():
+        warnings.simplefilter("default", registry.PluginWarning)
+        warnings.showwarning = _show_warning
+        args = parser().parse_args(argv)
     with warnings.catch_warnings():
         warnings.simplefilter("default", registry.PluginWarning)
         warnings.simplefilter("default", RunNote)
@@ -428,6 +618,13 @@ def main(argv: list[str] | None = None) -> int:
             print(exc.report(), file=sys.stderr)
         except UserError as exc:
             print(f"error: {exc}", file=sys.stderr)
+        except MemoryError as exc:
+            detail = f" ({exc})" if str(exc) else ""
+            print(
+                f"error: ran out of memory{detail}; use a smaller --chunk, fewer --workers, or "
+                "--outputs to compute less",
+                file=sys.stderr,
+            )
         except KeyboardInterrupt:
             print("interrupted", file=sys.stderr)
             return 130

@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import os
 import shutil
 import time
 from collections.abc import Callable
@@ -33,10 +34,12 @@ from .executor import LocalExecutor, RunOptions, chunks, merge_products
 from .graph import Graph
 from .store import (
     COMPLETE,
-    StoreExistsError,
     beam_dimension,
+    clear_store,
     create_volume,
+    discard_store,
     mark_complete,
+    open_store,
     run_state,
     split_volume,
     write_region,
@@ -71,6 +74,101 @@ def run_key(graph: Graph, options: RunOptions) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+#: ``scheduler`` values that run in this process: dask's threads (the default) or its
+#: synchronous scheduler (one chunk after another in the calling thread: pdb works, for
+#: debugging). Anything else is the address of a ``dask.distributed`` scheduler.
+LOCAL_SCHEDULERS = ("threads", "sync")
+
+
+def chunk_key(run: str, index: int) -> str:
+    """The Dask task key of one chunk: the same for the same run and chunk, every time."""
+    return f"pasim-chunk-{run}-{index}"
+
+
+def check_scheduler(address: str, timeout_s: float = 3.0) -> None:
+    """Refuse quickly a scheduler address nothing answers at (dask would retry for 30 s)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    if address in LOCAL_SCHEDULERS:
+        return
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    if parts.scheme not in ("tcp", "tls"):
+        raise SchedulerError(
+            f"--scheduler {address!r}: expected tcp://HOST:PORT (or tls://), 'threads' or 'sync'"
+        )
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        host, port = None, None
+    if not host or not port:
+        raise SchedulerError(f"--scheduler {address!r}: expected tcp://HOST:PORT")
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s):
+            pass
+    except OSError as exc:
+        raise SchedulerError(
+            f"--scheduler {address!r}: no scheduler answers there "
+            f"({exc.strerror or exc}, waited {timeout_s:g} s)"
+        ) from None
+
+
+class SchedulerError(RuntimeError):
+    """The scheduler named for a run cannot be reached or understood."""
+
+
+class ResourceError(RuntimeError):
+    """The run would not fit the memory or the disk (estimated before its chunks run)."""
+
+
+@dataclass
+class Probe:
+    """What running the first beam alone showed: memory it held and what it stores."""
+
+    working_bytes: int  # peak memory of one beam above what stays allocated after it
+    shared_bytes: int  # memory that stays allocated after it (prepared inputs, memoised)
+    stored_bytes: int  # compressed size of the beam's stored products
+
+
+def _gib(n: float) -> str:
+    return f"{n / 2**30:.1f} GiB" if n >= 2**30 else f"{n / 2**20:.0f} MiB"
+
+
+def _stored_bytes(sweep: xr.Dataset, beam_dim: str) -> int:
+    """Bytes one beam's variables take in the store, compressed as zarr compresses them."""
+    import numcodecs
+
+    codec = numcodecs.Zstd(level=0)
+    total = 0
+    for var in sweep.data_vars.values():
+        if beam_dim in var.dims:
+            data = np.ascontiguousarray(var.values)
+            total += len(codec.encode(data)) if data.nbytes else 0
+    return total
+
+
+def _traced(fn: Callable[[], Any]) -> tuple[Any, tuple[int, int]]:
+    """Call ``fn`` with tracemalloc on (numpy reports its buffers to it).
+
+    Returns fn's result and (peak above what remains allocated after it, what remains).
+    """
+    import tracemalloc
+
+    started = not tracemalloc.is_tracing()
+    if started:
+        tracemalloc.start()
+    try:
+        base = tracemalloc.get_traced_memory()[0]
+        tracemalloc.reset_peak()
+        result = fn()
+        current, peak = tracemalloc.get_traced_memory()
+    finally:
+        if started:
+            tracemalloc.stop()
+    kept = max(0, current - base)
+    return result, (max(0, peak - base - kept), kept)
+
+
 def _warm_up(classes: list[type[Block]]) -> None:
     for cls in classes:
         cls.warm_up()
@@ -102,7 +200,9 @@ class DaskExecutor:
     workers : int, optional
         Start a ``dask.distributed`` LocalCluster with this many single-threaded workers.
     scheduler : str, optional
-        Address of an existing ``dask.distributed`` scheduler (``tcp://host:8786``).
+        ``"threads"`` (the default), ``"sync"`` (dask's synchronous scheduler, for
+        debugging), or the address of an existing ``dask.distributed`` scheduler
+        (``tcp://host:8786``).
     progress : bool
         Show dask's progress bar.
     """
@@ -129,49 +229,73 @@ class DaskExecutor:
         *,
         resume: bool = False,
         overwrite: bool = False,
+        command: str = "",
         log: Callable[[str], None] = lambda s: None,
     ) -> RunReport:
+        """Run every chunk not yet done and write it to the store at ``path``.
+
+        The store is taken with :func:`~pasim_graph.store.open_store` (refusing what this
+        program did not write, and stores another run is writing) and held locked until the
+        run ends. ``command`` is recorded in the lock, so a refused run can say who holds it.
+        """
         path = Path(path)
         key = run_key(self.graph, self.options)
         n_beams = self.local.plan.beam_count
         starts = [b for b in chunks(n_beams, self.options.chunk_beams)]
+        lock = open_store(path, overwrite=overwrite, resume=resume, command=command)
+        try:
+            if lock.previous:
+                log(f"taking over the lock of a run that stopped early ({lock.previous})")
+            return self._run_locked(path, key, starts, attrs, log)
+        except BaseException:
+            # Nothing computed was written yet: leave no empty store to trip the next run.
+            discard_store(lock)
+            raise
+        finally:
+            lock.release()
+
+    def _run_locked(
+        self,
+        path: Path,
+        key: str,
+        starts: list[np.ndarray],
+        attrs: dict[str, Any],
+        log: Callable[[str], None],
+    ) -> RunReport:
+        n_beams = self.local.plan.beam_count
         done = np.zeros(len(starts), bool)
-        state = run_state(path) if path.exists() else None
-        if path.exists():
-            if overwrite:
-                shutil.rmtree(path)
-                state = None
-            elif not resume:
-                raise StoreExistsError(
-                    f"{path} exists; pass --resume to complete it or --overwrite to replace it"
-                )
-            elif state is None:
-                # Killed while the template was being written: nothing of value is there.
-                shutil.rmtree(path)
-            elif state[0].get("pasim_run_key") != key:
-                raise ResumeError(
-                    f"{path} was written by another run (graph, seed, chunk "
-                    "size or products differ); use --overwrite to replace it"
-                )
-            else:
-                done = state[1].astype(bool)
-                if state[0].get(COMPLETE) == "true":
-                    log(f"{path} is already complete")
-                    return RunReport(len(starts), 0, n_beams)
+        state = run_state(path)
+        if state is None:
+            # A new store, or one killed while its template was written: start afresh.
+            clear_store(path)
+        elif state[0].get("pasim_run_key") != key:
+            raise ResumeError(
+                f"{path} was written by another run (graph, seed, chunk "
+                "size or products differ); use --overwrite to replace it"
+            )
+        else:
+            done = state[1].astype(bool)
+            if state[0].get(COMPLETE) == "true":
+                log(f"{path} is already complete")
+                return RunReport(len(starts), 0, n_beams)
         attrs = {**attrs, "pasim_run_key": key, "chunk_beams": self.options.chunk_beams}
 
         t0 = time.perf_counter()
         # A cluster takes seconds to start; it starts while the inputs are read.
         pool = ThreadPoolExecutor(1)
-        client = pool.submit(self._connect) if (self.workers or self.scheduler) else None
+        distributed = self.workers or self.scheduler not in (None, *LOCAL_SCHEDULERS)
+        client = pool.submit(self._connect) if distributed else None
         try:
             self.local.load()
             static = self.local.run_static()
             if state is None:
-                # One beam fixes the store's layout; every chunk then runs in parallel.
-                parts = self.local.run_chunk(static, np.arange(1))
+                # One beam fixes the store's layout; every chunk then runs in parallel. It is
+                # also the probe that says whether the whole run fits.
+                parts, probe_memory = _traced(lambda: self.local.run_chunk(static, np.arange(1)))
                 first = merge_products(parts + self.local.static_products(static))
                 root, sweep = split_volume(first, attrs)
+                probe = Probe(*probe_memory, _stored_bytes(sweep, beam_dimension(sweep)))
+                self._check_resources(path, probe, n_beams)
                 create_volume(
                     path,
                     root,
@@ -186,10 +310,13 @@ class DaskExecutor:
             plan = self.local.plan
             plan.resources = {n: r for n, r in plan.resources.items() if n in plan.per_chunk}
             t1 = time.perf_counter()
+            keys = {i: chunk_key(key, i) for i in todo}
             if client is not None:
-                self._compute_distributed(client.result(), todo, starts, static, str(path), attrs)
+                self._compute_distributed(
+                    client.result(), todo, keys, starts, static, str(path), attrs
+                )
             else:
-                self._compute_threads(todo, starts, static, str(path), attrs)
+                self._compute_local(todo, keys, starts, static, str(path), attrs)
             t2 = time.perf_counter()
         finally:
             if client is not None:
@@ -203,14 +330,42 @@ class DaskExecutor:
         mark_complete(path)
         return RunReport(len(starts), len(todo), n_beams, t1 - t0, t2 - t1)
 
+    def _check_resources(self, path: Path, probe: Probe, n_beams: int) -> None:
+        """Refuse a run whose products would not fit the disk, or whose chunks the memory."""
+        disk = probe.stored_bytes * n_beams
+        free = shutil.disk_usage(path).free
+        if disk > 0.95 * free:
+            raise ResourceError(
+                f"this run would write about {_gib(disk)} to {path} "
+                f"({_gib(probe.stored_bytes)} per beam x {n_beams} beams, compressed) and "
+                f"{_gib(free)} is free there; write fewer fields (--outputs, no --save-iq), "
+                "fewer beams, or choose another --out"
+            )
+        if self.scheduler not in (None, *LOCAL_SCHEDULERS):
+            return  # a remote cluster's memory is not ours to judge
+        import psutil
+
+        if self.workers:
+            at_once = self.workers
+        elif self.scheduler == "sync":
+            at_once = 1
+        else:
+            at_once = os.cpu_count() or 1
+        at_once = min(at_once, -(-n_beams // self.options.chunk_beams))
+        beams = min(self.options.chunk_beams, n_beams)
+        need = probe.shared_bytes + probe.working_bytes * beams * at_once
+        available = psutil.virtual_memory().available
+        if need > available:
+            raise ResourceError(
+                f"this run would need about {_gib(need)} of memory ({_gib(probe.working_bytes)} "
+                f"per beam x {beams} beams per chunk x {at_once} chunks at once, plus "
+                f"{_gib(probe.shared_bytes)} shared) and {_gib(available)} is available; use a "
+                "smaller --chunk or fewer --workers"
+            )
+
     def _all_beam_coords(self, static: dict, sweep: xr.Dataset) -> dict[str, Any]:
         """Index coordinates along the beams, for every beam (the template needs them all)."""
-        plan = self.local.plan
-        source = next(n for n in plan.per_chunk if plan.graph.classes[n].beam_source)
-        values = dict(static)
-        self.local._run_block(source, values, np.arange(plan.beam_count))
-        beams = next(v for (b, _), v in values.items() if b == source)
-        _, full = split_volume(beams, {})
+        _, full = split_volume(self.local.beam_geometry(static), {})
         dim = beam_dimension(full)
         return {
             str(name): full[name].variable
@@ -218,9 +373,10 @@ class DaskExecutor:
             if dim in full[name].dims and name in sweep.coords
         }
 
-    def _compute_threads(
+    def _compute_local(
         self,
         todo: list[int],
+        keys: dict[int, str],
         starts: list[np.ndarray],
         static: dict,
         path: str,
@@ -231,7 +387,9 @@ class DaskExecutor:
         from threadpoolctl import threadpool_limits
 
         tasks = [
-            dask.delayed(_run_and_write, pure=False)(self.local, static, starts[i], i, path, attrs)
+            dask.delayed(_run_and_write, pure=False)(
+                self.local, static, starts[i], i, path, attrs, dask_key_name=keys[i]
+            )
             for i in todo
         ]
         # Chunks already fill every core; BLAS threads inside each would oversubscribe them
@@ -241,13 +399,13 @@ class DaskExecutor:
             threadpool_limits(limits=1, user_api="blas"),
             ProgressBar() if self.progress else contextlib.nullcontext(),
         ):
-            dask.compute(*tasks, scheduler="threads")
+            dask.compute(*tasks, scheduler=self.scheduler or "threads")
 
     def _connect(self) -> Any:
         from distributed import Client, LocalCluster
 
-        if self.scheduler:
-            client = Client(self.scheduler)
+        if self.scheduler and self.scheduler not in LOCAL_SCHEDULERS:
+            client = Client(self.scheduler, timeout="10s")
         else:
             import dask
 
@@ -273,6 +431,7 @@ class DaskExecutor:
         self,
         client: Any,
         todo: list[int],
+        keys: dict[int, str],
         starts: list[np.ndarray],
         static: dict,
         path: str,
@@ -285,7 +444,7 @@ class DaskExecutor:
         local = client.scatter(self.local, broadcast=True)
         shared = client.scatter(static, broadcast=True)
         futures = [
-            client.submit(_run_and_write, local, shared, starts[i], i, path, attrs, pure=False)
+            client.submit(_run_and_write, local, shared, starts[i], i, path, attrs, key=keys[i])
             for i in todo
         ]
         if self.progress:

@@ -29,9 +29,39 @@ class BlockError(RuntimeError):
     def __init__(self, block: str, type_name: str, beams: np.ndarray | None, error: Exception):
         self.block, self.type_name, self.error = block, type_name, error
         where = "while loading" if beams is None else _beams_text(beams)
-        super().__init__(
-            f"block '{block}' ({type_name}) failed {where}: {type(error).__name__}: {error}"
-        )
+        if isinstance(error, MemoryError):
+            # numpy's MemoryError often says how much it wanted; Python's own says nothing.
+            what = f"ran out of memory ({error})" if str(error) else "ran out of memory"
+            hint = "; use a smaller --chunk, fewer --workers, or --outputs to compute less"
+            text = f"block '{block}' ({type_name}) {what} {where}{hint}"
+        else:
+            text = f"block '{block}' ({type_name}) failed {where}: {type(error).__name__}: {error}"
+        super().__init__(text)
+
+
+class PortValueError(TypeError):
+    """A block returned a value that does not match its output port's declaration."""
+
+
+def _check_outputs(cls: type[Block], out: Any) -> None:
+    """Hold what ``process`` returned to the block's output declarations (metadata only).
+
+    Raises :class:`PortValueError` naming the port and every variable that is missing,
+    undeclared or of the wrong dtype, dimensions or units, so that a faulty block fails
+    where it is, not in the block that reads its output.
+    """
+    if not isinstance(out, dict):
+        raise PortValueError(f"process() returned {type(out).__name__}, expected a dict by port")
+    problems = [
+        f"returned an undeclared output {port!r} (outputs: {', '.join(cls.outputs) or 'none'})"
+        for port in out
+        if port not in cls.outputs
+    ]
+    for port, value in out.items():
+        if port in cls.outputs:
+            problems += [f"output port '{port}': {p}" for p in cls.outputs[port].type.check(value)]
+    if problems:
+        raise PortValueError("; ".join(problems))
 
 
 def _beams_text(beams: np.ndarray) -> str:
@@ -148,6 +178,7 @@ class LocalExecutor:
         t0 = time.perf_counter()
         try:
             out = block.process(inputs, chunk)
+            _check_outputs(type(block), out)
         except Exception as exc:
             raise BlockError(name, type(block).type_name, beams, exc) from exc
         with self._lock:
@@ -157,6 +188,17 @@ class LocalExecutor:
         for port in type(block).outputs:
             if port in out:
                 values[(name, port)] = out[port]
+
+    def beam_geometry(self, static: dict[tuple[str, str], Any]) -> Any:
+        """What the beam source gives for every beam of the scan at once (its first output).
+
+        Cheap: the beam source only describes the beams. Executors lay out a store with it.
+        """
+        p = self.plan
+        source = next(n for n in p.per_chunk if p.graph.classes[n].beam_source)
+        values = dict(static)
+        self._run_block(source, values, np.arange(p.beam_count))
+        return next(v for (b, _), v in values.items() if b == source)
 
     def run_static(self) -> dict[tuple[str, str], Any]:
         values: dict[tuple[str, str], Any] = {}

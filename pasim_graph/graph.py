@@ -165,6 +165,10 @@ def validate(spec: GraphSpec, overrides: dict[str, Any] | None = None) -> Graph:
             continue
         classes[name] = cls
         params[name] = _check_params(spec, name, cls, problems)
+        for item, message in cls.interface_problems():
+            problems.append(
+                Problem(f, b.line, name, item, f"block type {b.type} is faulty: {message}")
+            )
 
     edges = _check_connections(spec, classes, problems)
 
@@ -192,6 +196,10 @@ def validate(spec: GraphSpec, overrides: dict[str, Any] | None = None) -> Graph:
             Problem(f, spec.blocks[cycle[0]].line, cycle[0], "connections", f"cycle: {path}")
         )
 
+    if spec.blocks_read and not spec.blocks:
+        problems.append(
+            Problem(f, 0, "", "blocks", "the graph has no blocks (a run needs at least a scan)")
+        )
     sources = sorted(n for n, c in classes.items() if c.beam_source)
     if classes and len(classes) == len(spec.blocks) and len(sources) != 1:
         problems.append(

@@ -88,6 +88,8 @@ class GraphSpec:
     blocks: dict[str, BlockSpec] = field(default_factory=dict)
     connections: list[ConnectionSpec] = field(default_factory=list)
     problems: list[Problem] = field(default_factory=list)
+    #: The file had a readable ``blocks`` mapping (possibly empty).
+    blocks_read: bool = False
 
     def problem(self, line: int, message: str, block: str = "", item: str = "") -> None:
         self.problems.append(Problem(self.file, line, block, item, message))
@@ -136,10 +138,21 @@ def read(path: str | Path) -> GraphSpec:
     """Read a graph file; problems (unreadable, malformed) are recorded, never raised."""
     path = Path(path)
     try:
-        text = path.read_text()
+        data = path.read_bytes()
     except OSError as exc:
         spec = GraphSpec(file=str(path))
         spec.problem(0, f"cannot read graph file: {exc.strerror or exc}")
+        return spec
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        spec = GraphSpec(file=str(path))
+        line = data[: exc.start].count(b"\n") + 1
+        spec.problem(
+            line,
+            f"not UTF-8 text: byte 0x{data[exc.start]:02x} at offset {exc.start} cannot be "
+            "decoded (save the graph file as UTF-8)",
+        )
         return spec
     return parse(text, str(path))
 
@@ -160,7 +173,8 @@ def parse(text: str, file: str = "<graph>") -> GraphSpec:
             "expected a mapping with keys 'format', 'blocks' and 'connections'",
         )
         return spec
-    sections = {k.value: (k, v) for k, v in root.value}
+    _duplicate_keys(spec, root, "")
+    sections = _first(root)
     for key, (knode, _) in sections.items():
         if key not in ("format", "variables", "blocks", "connections"):
             spec.problem(
@@ -179,7 +193,7 @@ def parse(text: str, file: str = "<graph>") -> GraphSpec:
     if "variables" in sections:
         node = sections["variables"][1]
         if isinstance(node, yaml.MappingNode):
-            spec.variables = {k.value: _value(v) for k, v in node.value}
+            spec.variables = {k: _value(v) for k, (_, v) in _first(node).items()}
         elif not _is_null(node):
             spec.problem(_line(node), "'variables' must be a mapping of name: value")
     if "blocks" not in sections:
@@ -191,14 +205,53 @@ def parse(text: str, file: str = "<graph>") -> GraphSpec:
     return spec
 
 
+def _first(node: yaml.MappingNode) -> dict[Any, tuple[yaml.Node, yaml.Node]]:
+    """Key -> (key node, value node), the first occurrence of each key (duplicates are
+    reported by :func:`_duplicate_keys`, never silently resolved to the last one)."""
+    out: dict[Any, tuple[yaml.Node, yaml.Node]] = {}
+    for k, v in node.value:
+        out.setdefault(k.value, (k, v))
+    return out
+
+
+def _duplicate_keys(spec: GraphSpec, node: yaml.Node, where: str) -> None:
+    """Record every key written twice in any mapping of the file, with both lines."""
+    if isinstance(node, yaml.SequenceNode):
+        for item in node.value:
+            _duplicate_keys(spec, item, where)
+    if not isinstance(node, yaml.MappingNode):
+        return
+    seen: dict[Any, int] = {}
+    for k, v in node.value:
+        key = k.value
+        path = f"{where}.{key}" if where else str(key)
+        if key in seen:
+            block = where.split(".")[1] if where.startswith("blocks.") else ""
+            if where == "blocks":
+                block = str(key)
+            spec.problem(
+                _line(k),
+                f"duplicate key {path!r} (first written at line {seen[key]}); "
+                "each key may appear once",
+                block=block,
+            )
+            continue
+        seen[key] = _line(k)
+        _duplicate_keys(spec, v, path)
+
+
 def _is_null(node: yaml.Node) -> bool:
     return isinstance(node, yaml.ScalarNode) and node.tag.endswith(":null")
 
 
 def _read_blocks(spec: GraphSpec, node: yaml.Node) -> None:
+    if _is_null(node):
+        spec.blocks_read = True
+        return
     if not isinstance(node, yaml.MappingNode):
         spec.problem(_line(node), "'blocks' must be a mapping of block name: {type, params}")
         return
+    spec.blocks_read = True
     for knode, vnode in node.value:
         name = knode.value
         line = _line(knode)
@@ -206,12 +259,11 @@ def _read_blocks(spec: GraphSpec, node: yaml.Node) -> None:
             spec.problem(line, f"invalid block name {name!r} (letters, digits, _ and -)")
             continue
         if name in spec.blocks:
-            spec.problem(line, "block defined twice", block=name)
-            continue
+            continue  # reported as a duplicate key
         if not isinstance(vnode, yaml.MappingNode):
             spec.problem(line, "expected {type: ..., params: {...}}", block=name)
             continue
-        fields = {k.value: (k, v) for k, v in vnode.value}
+        fields = _first(vnode)
         for key, (k, _) in fields.items():
             if key not in ("type", "params"):
                 spec.problem(
@@ -224,9 +276,9 @@ def _read_blocks(spec: GraphSpec, node: yaml.Node) -> None:
         if "params" in fields:
             pnode = fields["params"][1]
             if isinstance(pnode, yaml.MappingNode):
-                for pk, pv in pnode.value:
-                    block.params[pk.value] = _value(pv)
-                    block.param_lines[pk.value] = _line(pk)
+                for key, (pk, pv) in _first(pnode).items():
+                    block.params[key] = _value(pv)
+                    block.param_lines[key] = _line(pk)
             elif not _is_null(pnode):
                 spec.problem(_line(pnode), "'params' must be a mapping", block=name)
         spec.blocks[name] = block

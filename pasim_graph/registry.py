@@ -12,10 +12,13 @@ import difflib
 import warnings
 from functools import lru_cache
 from importlib.metadata import EntryPoint, entry_points
+from typing import Any
 
 from .block import Block
 
 GROUP = "pasim_graph.blocks"
+#: Entry-point group of command-line subcommands from plugin packages (``pasim waveform``).
+COMMANDS = "pasim_graph.commands"
 
 
 class PluginWarning(RuntimeWarning):
@@ -46,6 +49,7 @@ _errors: dict[str, str] = {}
 def refresh() -> None:
     """Forget what was discovered, e.g. after installing a plugin package."""
     _entry_points.cache_clear()
+    commands.cache_clear()
     _loaded.clear()
     _errors.clear()
 
@@ -97,3 +101,27 @@ def all_blocks() -> dict[str, type[Block]]:
 
 def closest(name: str, n: int = 3) -> list[str]:
     return difflib.get_close_matches(name, names(), n=n, cutoff=0.5)
+
+
+@lru_cache(maxsize=1)
+def commands() -> dict[str, Any]:
+    """Subcommands registered by packages, by name (those that fail to load warn)."""
+    out: dict[str, Any] = {}
+    for ep in sorted(entry_points(group=COMMANDS), key=lambda e: (e.name, e.value)):
+        if ep.name in out:
+            continue
+        try:
+            command = ep.load()
+            for attr in ("help", "configure", "run"):
+                if not hasattr(command, attr):
+                    raise TypeError(f"{ep.value} has no {attr!r}")
+        except Exception as exc:  # a broken plugin must not break the command line
+            warnings.warn(
+                f"command plugin {ep.name!r} ({ep.value}) failed to load: "
+                f"{type(exc).__name__}: {exc}",
+                PluginWarning,
+                stacklevel=2,
+            )
+            continue
+        out[ep.name] = command
+    return out

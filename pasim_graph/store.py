@@ -8,7 +8,9 @@ engine="zarr")`` opens it and xradar and Py-ART can use it.
 from __future__ import annotations
 
 import contextlib
+import json
 import shutil
+import time
 import warnings
 from collections.abc import Iterator
 from pathlib import Path
@@ -33,6 +35,230 @@ class StoreExistsError(FileExistsError):
     pass
 
 
+class StoreError(RuntimeError):
+    """A store cannot be written: not ours, in use by another run, or not writable."""
+
+
+# A store is a directory this program made: it holds MARKER, written before anything else, and
+# while a run writes it, LOCK (whose owner holds an flock on it). Nothing is ever deleted from
+# a directory without the marker, and zarr's mode "w" (which empties the whole directory) is
+# never used.
+MARKER = "pasim-store.json"
+LOCK = "pasim-run.lock"
+_MARKER_FORMAT = "pasim-store/1"
+
+
+def is_store(path: str | Path) -> bool:
+    """True when ``path`` is a directory this program wrote (it carries the marker)."""
+    try:
+        return json.loads((Path(path) / MARKER).read_text()).get("format") == _MARKER_FORMAT
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+class StoreLock:
+    """One writer per store: an flock held on ``LOCK`` inside the store while a run writes it.
+
+    The lock file says who holds it (pid, host, start, command). The kernel releases an flock
+    when its process dies, so a lock file left behind by a crash is free to take: that is how
+    a stale lock is told from a live one, and ``--resume`` takes it over. Runs on other hosts
+    cannot be checked that way; their locks are honoured until removed by hand.
+    """
+
+    def __init__(self, path: Path, fd: int, previous: dict[str, Any] | None):
+        self.path, self._fd = path, fd
+        #: What the lock file said when it was taken: the crashed run's details, or None.
+        self.previous = previous
+        #: The store was new (or emptied by --overwrite) when the run took it.
+        self.fresh = False
+        #: The run made the store's directory.
+        self.made_dir = False
+
+    @classmethod
+    def acquire(cls, store: Path, command: str) -> StoreLock:
+        import fcntl
+        import os
+        import socket
+
+        path = store / LOCK
+        while True:
+            try:
+                fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+            except OSError as exc:
+                raise StoreError(f"{store}: cannot create {LOCK}: {exc.strerror or exc}") from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                holder = _read_lock(fd)
+                os.close(fd)
+                raise StoreError(
+                    f"{store} is being written by another run ({_describe_holder(holder)}); "
+                    "wait for it to finish or choose another --out"
+                ) from None
+            # The previous owner may have deleted the file between our open and our flock:
+            # then we hold a lock on a file nobody else can see, and must try again.
+            try:
+                same = os.fstat(fd).st_ino == os.stat(path).st_ino
+            except FileNotFoundError:
+                same = False
+            if same:
+                break
+            os.close(fd)
+        previous = _read_lock(fd) or None
+        host = socket.gethostname()
+        if previous and previous.get("host") not in (None, host):
+            fcntl.flock(fd, fcntl.LOCK_UN)
+            os.close(fd)
+            raise StoreError(
+                f"{store} is locked by a run on another host ({_describe_holder(previous)}); "
+                f"if that run is gone, delete {path}"
+            )
+        me = {
+            "pid": os.getpid(),
+            "host": host,
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S"),
+            "command": command,
+        }
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, json.dumps(me).encode(), 0)
+        os.fsync(fd)
+        return cls(path, fd, previous)
+
+    def release(self) -> None:
+        """Remove the lock file and drop the lock (idempotent)."""
+        import fcntl
+        import os
+
+        if self._fd < 0:
+            return
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(self.path)
+        fcntl.flock(self._fd, fcntl.LOCK_UN)
+        os.close(self._fd)
+        self._fd = -1
+
+    def __enter__(self) -> StoreLock:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
+
+def _read_lock(fd: int) -> dict[str, Any]:
+    import os
+
+    try:
+        data = os.pread(fd, 65536, 0)
+        out = json.loads(data) if data.strip() else {}
+        return out if isinstance(out, dict) else {}
+    except (OSError, ValueError):
+        return {}
+
+
+def _describe_holder(holder: dict[str, Any]) -> str:
+    if not holder:
+        return "owner unknown"
+    text = f"pid {holder.get('pid')} on {holder.get('host')}, started {holder.get('started')}"
+    if holder.get("command"):
+        text += f": {holder['command']}"
+    return text
+
+
+def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str) -> StoreLock:
+    """Take a directory for a run to write, refusing anything this program did not write.
+
+    ``path`` may be missing or an empty directory (a new store), or a store of ours: with
+    ``overwrite`` its contents are removed, with ``resume`` they are kept for the run to
+    complete; without either an existing store is refused. A plain file, a non-empty
+    directory without the marker (``.``, a home folder, a foreign Zarr), a store another
+    run is writing, or a place that cannot be written raise :class:`StoreError` naming the
+    path, before anything in it is touched. Returns the held lock.
+    """
+    path = Path(path)
+    if overwrite and resume:
+        raise StoreError("--resume and --overwrite exclude each other: choose one")
+    if path.exists() and not path.is_dir():
+        raise StoreError(f"{path} is a file, not a store directory; choose another --out")
+    if path.is_dir() and not is_store(path) and set(_entries(path)) - {LOCK}:
+        what = (
+            "a Zarr store written by something else"
+            if (path / "zarr.json").exists()
+            else ("a directory this program did not write")
+        )
+        raise StoreError(
+            f"{path} is {what} (no {MARKER} in it); it is left untouched: choose another --out"
+        )
+    made_dir = not path.exists()
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise StoreError(f"cannot create {path}: {exc.strerror or exc}") from None
+    import os
+
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise StoreError(f"cannot write to {path}: permission denied")
+    lock = StoreLock.acquire(path, command)
+    lock.made_dir = made_dir
+    try:
+        # Checked again under the lock: another run may have made the store meanwhile.
+        existing = set(_entries(path)) - {LOCK}
+        if existing and not is_store(path):
+            raise StoreError(f"{path} is not a store this program wrote; choose another --out")
+        if existing and not (overwrite or resume):
+            crashed = " (a run that stopped early left it)" if lock.previous else ""
+            raise StoreExistsError(
+                f"{path} exists{crashed}; pass --resume to complete it or --overwrite to replace it"
+            )
+        if existing and overwrite:
+            clear_store(path)
+            existing = set()
+        if not existing:
+            from . import __version__
+
+            lock.fresh = True
+            (path / MARKER).write_text(
+                json.dumps({"format": _MARKER_FORMAT, "writer": f"pasim-graph {__version__}"})
+                + "\n"
+            )
+    except BaseException:
+        lock.release()
+        raise
+    return lock
+
+
+def discard_store(lock: StoreLock) -> None:
+    """Undo a fresh store that holds nothing yet (its run failed before writing anything):
+    remove the marker, the lock, and the directory if the run made it."""
+    store = lock.path.parent
+    if not (lock.fresh and is_store(store)) or run_state(store) is not None:
+        return
+    clear_store(store)
+    (store / MARKER).unlink()
+    lock.release()
+    if lock.made_dir:
+        with contextlib.suppress(OSError):
+            store.rmdir()
+
+
+def clear_store(path: Path) -> None:
+    """Remove a store's contents but its marker and lock (only ever called on our stores)."""
+    if not is_store(path):
+        raise StoreError(f"{path} is not a store this program wrote; refusing to clear it")
+    for name in set(_entries(path)) - {LOCK, MARKER}:
+        entry = path / name
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry)
+        else:
+            entry.unlink()
+
+
+def _entries(path: Path) -> list[str]:
+    try:
+        return sorted(e.name for e in path.iterdir())
+    except OSError as exc:
+        raise StoreError(f"cannot read {path}: {exc.strerror or exc}") from None
+
+
 @contextlib.contextmanager
 def _quiet() -> Iterator[None]:
     with warnings.catch_warnings():
@@ -40,6 +266,10 @@ def _quiet() -> Iterator[None]:
         # xarray and xradar read back fine; the warnings only say other readers may not.
         warnings.filterwarnings("ignore", message=".*Consolidated metadata.*")
         warnings.filterwarnings("ignore", message=".*does not have a Zarr V3 specification.*")
+        # The store's marker and lock files sit beside the Zarr hierarchy on purpose.
+        warnings.filterwarnings(
+            "ignore", message=f"Object at ({MARKER}|{LOCK}) is not recognized as a component"
+        )
         yield
 
 
@@ -57,21 +287,6 @@ def split_volume(sweep: xr.Dataset, attrs: dict[str, Any]) -> tuple[xr.Dataset, 
             root[name] = sweep[name].variable
             sweep = sweep.drop_vars(name)
     return root, sweep
-
-
-def write_volume(
-    path: str | Path, sweep: xr.Dataset, attrs: dict[str, Any], overwrite: bool = False
-) -> None:
-    """Write one whole sweep and the root group to a Zarr store (``attrs`` go on the root)."""
-    path = Path(path)
-    if path.exists():
-        if not overwrite:
-            raise StoreExistsError(f"{path} exists; pass --overwrite to replace it")
-        shutil.rmtree(path)
-    root, sweep = split_volume(sweep, attrs)
-    tree = xr.DataTree.from_dict({"/": root, "/sweep_0": sweep})
-    with _quiet():
-        tree.to_zarr(path, mode="w", consolidated=True)
 
 
 # Incremental writing: a template first, then each chunk's region as it finishes, a done flag
@@ -119,7 +334,8 @@ def create_volume(
     root = root.assign(done)
     root.attrs[COMPLETE] = "false"
     with _quiet():
-        root.to_zarr(path, mode="w", consolidated=False, encoding={DONE: {"chunks": (1,)}})
+        # mode "a", never "w": zarr's "w" empties the whole directory, marker and lock included.
+        root.to_zarr(path, mode="a", consolidated=False, encoding={DONE: {"chunks": (1,)}})
         ds.to_zarr(path, group="sweep_0", mode="a", consolidated=False, compute=False)
 
 
@@ -153,9 +369,9 @@ def mark_complete(path: str | Path) -> None:
     """The last write of a run: flag the store complete and consolidate its metadata."""
     import zarr
 
-    root = zarr.open_group(str(path), mode="r+")
-    root.attrs[COMPLETE] = "true"
     with _quiet():
+        root = zarr.open_group(str(path), mode="r+")
+        root.attrs[COMPLETE] = "true"
         zarr.consolidate_metadata(str(path))
 
 

@@ -236,7 +236,12 @@ def block_inputs(n_beams: int = 2, n_gates: int = 6):
     calibration = xr.Dataset(
         {"radar_constant_db": (("beam", "polarization"), const)},
         coords={"range": ("range", rng_m), "polarization": ["H", "V"]},
-        attrs={"wavelength_m": WAVELENGTH_M, "prt_s": PRT_S},
+        attrs={
+            "wavelength_m": WAVELENGTH_M,
+            "prt_s": PRT_S,
+            "blind_range_m": 0.0,
+            "calibration": "boresight",
+        },
     )
     amp_h = np.linspace(1e-4, 1e-2, n_beams * n_gates).reshape(n_beams, n_gates)
     amp_v = 0.8 * amp_h

@@ -112,6 +112,7 @@ def scene(seed: int = 1, biases: dict[str, float] | None = None):
     moments = xr.Dataset(
         {k: (("beam", "range"), v) for k, v in est.items()},
         coords={"range": ("range", 1000.0 + 250.0 * np.arange(N_GATES))},
+        attrs={"blind_range_m": 0.0, "calibration": "boresight"},
     )
     moments["nyquist_velocity"] = ("beam", NYQUIST)
     truth_ds = xr.Dataset(
@@ -214,7 +215,7 @@ def test_error_attributes_carry_table_3() -> None:
         assert attrs["requirement_std"] == req_std
         assert "DBZH >= 10" in attrs["scored"]
     assert out["error_ZDR"].attrs["units"] == "dB"
-    assert out["error_PHIDP"].attrs["units"] == "deg"
+    assert out["error_PHIDP"].attrs["units"] == "degrees"
 
 
 def test_summarize_scorer_output_agrees_with_numpy() -> None:

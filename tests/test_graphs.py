@@ -35,3 +35,15 @@ def load_text(text):
 def test_read_reports_unreadable(tmp_path):
     spec = read(tmp_path / "missing.yaml")
     assert spec.problems and "cannot read" in spec.problems[0].message
+
+
+def test_block_reference_is_written_from_the_declarations():
+    """docs/blocks.md is what `pasim blocks --markdown` writes for the library's blocks."""
+    from pasim_graph.cli import blocks_markdown
+    from pasim_graph.registry import all_blocks
+
+    library = {n: c for n, c in all_blocks().items() if c.__module__.startswith("pasim_blocks")}
+    expected = blocks_markdown(library)
+    assert (GRAPHS.parent / "docs" / "blocks.md").read_text() == expected, (
+        "docs/blocks.md is stale: run `pasim blocks --markdown > docs/blocks.md`"
+    )

@@ -295,13 +295,25 @@ def test_gzip_wrapped_and_uncompressed_volumes_read_the_same(
         assert _fields_digest(read_truth_sweep(variant, 0.5, (240.0, 250.0))) == reference
 
 
-def test_truncated_volume_warns_about_incomplete_cut(truth_file: Path, tmp_path: Path) -> None:
+def test_truncated_volume_says_so_and_where(truth_file: Path, tmp_path: Path) -> None:
+    """A cut-off download that ends inside a wanted cut is refused as truncated, naming the
+    cut and the last radial read (not reported as a missing sector)."""
     # One megabyte of this volume ends inside the 0.5 deg Doppler cut.
     cut_short = tmp_path / "truncated_V06"
     cut_short.write_bytes(truth_file.read_bytes()[:1_000_000])
-    with pytest.warns(UserWarning, match="incomplete"):
-        sweep = read_truth_sweep(cut_short)
-    assert set(sweep.fields) == set(FIELD_NAMES)
+    with pytest.raises(
+        ValueError,
+        match=r"is truncated: the file ends at byte 1,000,000, "
+        r"inside the 0\.\d+ deg cut after its radial \d+ \(azimuth",
+    ):
+        read_truth_sweep(cut_short)
+    # Cut before the first radial.
+    cut_short.write_bytes(truth_file.read_bytes()[:30_000])
+    with pytest.raises(ValueError, match="is truncated: the file ends at byte 30,000, before"):
+        read_truth_sweep(cut_short)
+    # Cut after the cuts a 0.5 deg sweep needs: nothing of what is read is missing.
+    cut_short.write_bytes(truth_file.read_bytes()[:3_000_000])
+    sweep = read_truth_sweep(cut_short)
     assert np.count_nonzero(np.isfinite(sweep.fields["VRADH"])) > 0
 
 
@@ -370,8 +382,8 @@ def _count_records(monkeypatch: pytest.MonkeyPatch) -> list[int]:
     taken: list[int] = []
     records = nexrad_io._records
 
-    def counting(raw, path):
-        for record in records(raw, path):
+    def counting(raw, path, cut=None):
+        for record in records(raw, path, cut):
             taken.append(len(record))
             yield record
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import xarray as xr
 import xradar.model as xm
+from pasim_blocks.signals import MOMENTS
 
 from .conftest import GRAPHS, run_cli
 
@@ -42,8 +43,12 @@ def test_store_is_a_cfradial2_volume(small_store):
     assert "elevation" in sweep.coords
     for name in ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH"):
         assert sweep[name].dims == ("azimuth", "range")
+        # xradar's names and standard names; units as the moments port declares them
+        # (UDUNITS strings: xradar says "unitless" and "meters per seconds").
         for key, value in xm.sweep_vars_mapping[name].items():
-            assert sweep[name].attrs[key] == value
+            if key != "units":
+                assert sweep[name].attrs[key] == value
+        assert sweep[name].attrs["units"] == MOMENTS.schema.variables[name].units
         assert f"truth_{name}" in sweep
     assert "SNRH" in sweep
     assert sweep["IQ_H"].dims == ("azimuth", "range", "pulse")

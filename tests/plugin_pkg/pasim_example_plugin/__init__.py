@@ -14,15 +14,7 @@ IQ = PortType("iq", "complex64", ("beam", "range", "pulse", "polarization"), "sq
 
 
 class Attenuator(Block):
-    """A fixed RF attenuator (e.g. a lossy radome) on both polarisations.
-
-    Inputs
-    ------
-    iq_in : iq
-    Outputs
-    -------
-    iq : iq
-    """
+    """A fixed RF attenuator (e.g. a lossy radome) on both polarisations."""
 
     iq_in = Input(IQ, doc="voltages in")
     iq = Output(IQ, doc="voltages out")
