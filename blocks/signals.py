@@ -113,6 +113,7 @@ PULSE = PortType(
             "sample_rate_hz": Attr("float", "sample rate of the envelope"),
             "waveform": Attr("str", "name of the waveform", required=False),
             "width_s": Attr("float", "pulse length", required=False),
+            "bandwidth_hz": Attr("float", "swept bandwidth", required=False),
         },
     ),
 )
@@ -142,6 +143,11 @@ RANGE_RESPONSE = PortType(
             "sample_rate_hz": Attr("float", "sample rate of pulse, taps and offsets"),
             "noise_bandwidth_hz": Attr("float", "noise bandwidth of the filter (fs sum|h|^2)"),
             "blind_range_m": Attr("float", "range hidden while transmitting (c T / 2)"),
+            "snr_loss_db": Attr(
+                "float",
+                "loss of peak SNR against the filter matched to the radiated pulse",
+                required=False,
+            ),
         },
     ),
 )
