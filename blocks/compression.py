@@ -89,18 +89,14 @@ def sidelobes(voltage: np.ndarray, dx: float, upsample: int = 8) -> dict[str, An
     fine, step = interpolate(np.asarray(voltage, complex), dx, upsample)
     power = np.abs(fine) ** 2
     i, lo, hi = mainlobe(power)
-    side = np.concatenate([power[:lo], power[hi + 1 :]])
-    main = power[lo : hi + 1]
-    if side.size == 0 or side.max() <= 0:
+    side = power.copy()
+    side[lo : hi + 1] = 0.0
+    if side.max() <= 0:
         psl, isl, j = -np.inf, -np.inf, i
     else:
-        psl = 10 * np.log10(side.max() / power[i])
-        isl = 10 * np.log10(side.sum() / main.sum())
-        j = int(
-            np.argmax(
-                np.where((np.arange(power.size) < lo) | (np.arange(power.size) > hi), power, -1.0)
-            )
-        )
+        j = int(np.argmax(side))
+        psl = 10 * np.log10(side[j] / power[i])
+        isl = 10 * np.log10(side.sum() / power[lo : hi + 1].sum())
     return {
         "psl_db": float(psl),
         "isl_db": float(isl),
@@ -123,11 +119,12 @@ def snr_loss_db(pulse: np.ndarray, taps: np.ndarray) -> float:
     """Loss of peak SNR of the filter ``taps`` against the filter matched to ``pulse``.
 
     -10 log10(max |s * h|^2 / (E_s sum|h|^2)), the largest output over all lags: 0 for the
-    matched filter (Cauchy-Schwarz), positive otherwise.
+    matched filter (Cauchy-Schwarz), positive otherwise (rounding below 0 is returned as 0).
     """
     import scipy.signal
 
     y = scipy.signal.convolve(pulse, taps, mode="full")
     e_s = float(np.sum(np.abs(pulse) ** 2))
     gain = float(np.max(np.abs(y) ** 2)) / (e_s * float(np.sum(np.abs(taps) ** 2)))
-    return float(-10 * np.log10(gain))
+    loss = float(-10 * np.log10(gain))
+    return loss if loss > 0 else 0.0

@@ -160,7 +160,7 @@ def figures(response: xr.Dataset, upsample: int = 8) -> dict[str, Any]:
         "isl_db": lobes["isl_db"],
         "range_resolution_m": lobes["resolution"],
         "mainlobe_peak_db": float(10 * np.log10(lobes["peak"])),
-        "snr_loss_db": max(0.0, snr_loss_db(s, response["taps"].values)),
+        "snr_loss_db": snr_loss_db(s, response["taps"].values),
         # Against the rated peak (envelope 1), or the pulse's own peak if it exceeds it.
         "power_efficiency": power_efficiency(s, max(1.0, float(np.max(np.abs(s))))),
         "blind_range_m": float(response.attrs["blind_range_m"]),
