@@ -222,3 +222,20 @@ def test_chain_without_waveform_or_fed_by_beams_is_refused() -> None:
     beamy = Graph(spec, {"f": BeamFilter, "s": Scan, "w": Wave}, {"f": {}, "s": {}, "w": {}}, edges)
     with pytest.raises(ChainError, match="depends on beams"):
         find_chain(beamy)
+
+
+@pytest.mark.parametrize("name", ["lfm", "taylor_lfm", "nlfm"])
+def test_graph_runs_with_the_weather_channel(name: str) -> None:
+    """The shipped graph runs end to end (two beams, 8 pulses) on the bundled scene: moments
+    beyond the blind range, none inside it."""
+    from pasim_graph.executor import LocalExecutor, RunOptions
+
+    overrides = {"scan.azimuth_start_deg": 284.0, "scan.azimuth_stop_deg": 286.0}
+    overrides |= {"scan.pulses": 8, "truth.azimuth_start_deg": 270.0}
+    overrides |= {"truth.azimuth_stop_deg": 300.0}
+    ds = LocalExecutor(load(GRAPHS / f"waveform_{name}.yaml", overrides), RunOptions()).run()
+    r = ds["range"].values
+    blind = C * T_S / 2
+    assert ds.attrs["blind_range_m"] == pytest.approx(blind)
+    assert np.all(np.isnan(ds["DBZH"].values[:, r < blind]))
+    assert np.isfinite(ds["DBZH"].values[:, r > blind]).sum() > 100

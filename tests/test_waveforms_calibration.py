@@ -8,7 +8,8 @@ The weather channel computes the radar constant from the filter's integrated pow
 and the receiver the noise from the filter's noise bandwidth, so:
 
 * the reflectivity comes back with bias ~0 dB at every gate whose whole range response lies
-  inside the scene (30 gates of 250 m each side of a 50 us pulse);
+  inside the scene (30 gates of 250 m each side of a 50 us pulse), also through a mismatched
+  (Taylor-weighted) filter;
 * for a point target the matched filter's peak SNR is E / N0: waveforms of the same peak
   power differ by their energy, 10 log10(0.34) = -4.7 dB for the -60 dB Taylor LFM against
   the LFM (computed here from scipy.signal.windows.taylor);
@@ -39,7 +40,9 @@ WAVEFORMS = {
     "taylor_lfm": "tx: {type: waveform.lfm, params: {window: taylor, taylor_sidelobe_db: -60.0}}",
     "nlfm": "tx: {type: waveform.nlfm, params: {design: optimised}}",
     "nlfm_gaussian": "tx: {type: waveform.nlfm}",
+    "lfm_mismatched": "tx: {type: waveform.lfm}",
 }
+FILTERS = {"lfm_mismatched": "mf: {type: filter.mismatched, params: {taylor_sidelobe_db: -40.0}}"}
 GATES = 100  # 25 km from 20 km; gates 30..69 see the whole 50 us response
 
 
@@ -47,6 +50,8 @@ def run(name: str):
     text = (GRAPHS / "uniform_ideal.yaml").read_text()
     assert RECT in text
     text = text.replace(RECT, WAVEFORMS[name])
+    if name in FILTERS:
+        text = text.replace("mf:       {type: filter.matched}", FILTERS[name])
     text = text.replace("method: covariance", "method: expected")
     text = text.replace("snr_db: 20.0", "snr_db: null")  # thermal noise
     text = text.replace("azimuth_stop_deg: 40.0", "azimuth_stop_deg: 2.0")
