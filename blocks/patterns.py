@@ -30,15 +30,22 @@ from scipy import optimize, signal, special
 __all__ = [
     "SPEED_OF_LIGHT",
     "DualPolField",
+    "FaceGeometry",
     "PencilBeam",
     "SeparableWeights",
     "array_factor",
+    "array_fields",
     "circular_aperture_pattern",
+    "design_taper",
     "element_positions",
     "face_direction_cosines",
+    "face_geometry",
     "first_sidelobe_db",
     "half_power_beamwidth_deg",
+    "main_lobe_bounds",
     "patch_element_field",
+    "patch_field",
+    "peak_sidelobe_db",
     "pencil_beam_power",
     "planar_array_directivity_db",
     "planar_array_fields",
@@ -382,7 +389,7 @@ def pencil_beam_power(
 # --------------------------------------------------------------------------------------------
 
 
-class _FaceGeometry(NamedTuple):
+class FaceGeometry(NamedTuple):
     """Directions in a face frame, plus the face axes projected on the local (h, v) basis."""
 
     u: NDArray
@@ -394,9 +401,9 @@ class _FaceGeometry(NamedTuple):
     y_dot_v: NDArray
 
 
-def _face_geometry(
+def face_geometry(
     az_deg: npt.ArrayLike, el_deg: npt.ArrayLike, face_azimuth_deg: float, face_tilt_deg: float
-) -> _FaceGeometry:
+) -> FaceGeometry:
     """Everything the element and array models need from the directions, trig done once."""
     d_az = np.radians(np.asarray(az_deg, dtype=float) - face_azimuth_deg)
     el = np.radians(np.asarray(el_deg, dtype=float))
@@ -409,7 +416,7 @@ def _face_geometry(
     # array factor exploits.
     v = sin_el if tilt == 0.0 else cos_t * sin_el - sin_t * horizontal_normal
     # The face x axis is horizontal whatever the tilt; y = x cross normal is "up the face".
-    return _FaceGeometry(
+    return FaceGeometry(
         u=cos_el * sin_d,
         v=v,
         w=sin_t * sin_el + cos_t * horizontal_normal,
@@ -448,7 +455,7 @@ def face_direction_cosines(
     u, v, w : ndarray
         Components along the face ``x``, ``y`` and normal; ``w > 0`` in front of the face.
     """
-    g = _face_geometry(az_deg, el_deg, face_azimuth_deg, face_tilt_deg)
+    g = face_geometry(az_deg, el_deg, face_azimuth_deg, face_tilt_deg)
     u, v, w = np.broadcast_arrays(g.u, g.v, g.w)
     return np.array(u), np.array(v), np.array(w)
 
@@ -523,11 +530,11 @@ def patch_element_field(
     DualPolField
         Real field components on the local (h, v) basis, normalised to 1 at broadside.
     """
-    geometry = _face_geometry(az_deg, el_deg, face_azimuth_deg, face_tilt_deg)
-    return _patch_field(geometry, patch_m * frequency_hz / SPEED_OF_LIGHT)
+    geometry = face_geometry(az_deg, el_deg, face_azimuth_deg, face_tilt_deg)
+    return patch_field(geometry, patch_m * frequency_hz / SPEED_OF_LIGHT)
 
 
-def _patch_field(g: _FaceGeometry, size: float) -> DualPolField:
+def patch_field(g: FaceGeometry, size: float) -> DualPolField:
     """Cavity-model field of a patch ``size`` wavelengths square (see patch_element_field)."""
     front = g.w > 0.0
     # np.sinc(x) = sin(pi x) / (pi x), so sinc(k L v / 2) = np.sinc(L v / lambda).
@@ -598,6 +605,25 @@ def taper_efficiency(weights: npt.ArrayLike) -> float:
     """Taper efficiency ``|sum w|^2 / (N sum |w|^2)`` of any weight vector or matrix."""
     w = np.asarray(weights)
     return float(abs(w.sum()) ** 2 / (w.size * np.sum(np.abs(w) ** 2)))
+
+
+#: Amplitude tapers an array block can choose (its ``taper`` parameter).
+TAPERS = ("taylor", "kaiser", "uniform")
+
+
+def design_taper(
+    n: int, kind: str, sll_db: float = -30.0, nbar: int = 5, beta: float = 4.0
+) -> NDArray[np.float64]:
+    """Amplitude taper of ``n`` elements, peak 1: Taylor (``sll_db``, ``nbar``), Kaiser
+    (``beta``) or uniform, from ``scipy.signal.windows``."""
+    if kind == "taylor":
+        return taylor_taper(n, sll_db, nbar)
+    if kind == "kaiser":
+        w = signal.windows.kaiser(n, beta, sym=True)
+        return np.asarray(w / w.max(), dtype=float)
+    if kind == "uniform":
+        return np.ones(n)
+    raise ValueError(f"unknown taper {kind!r}; known: {', '.join(TAPERS)}")
 
 
 def planar_array_weights(
@@ -713,6 +739,24 @@ def _general_array_factor(weights: NDArray, psi_x: NDArray, psi_y: NDArray) -> N
     return (out * centre).reshape(psi_x.shape)
 
 
+def _rows_array_factor(weights: NDArray, psi_x: NDArray, psi_y: NDArray) -> NDArray:
+    """Exact array factor on a grid whose ``psi_y`` is one value per row of ``psi_x``.
+
+    The sum over the ``n_y`` rows of elements is done once per grid row (a matrix product);
+    what remains per grid row is the polynomial ``sum_m B_m z^m`` in ``z = exp(j psi_x)``,
+    evaluated by Horner's rule over the whole grid at once (``n_x`` contiguous multiply-adds).
+    """
+    n_x, n_y = weights.shape
+    centred_y = np.arange(n_y) - 0.5 * (n_y - 1)
+    per_row = np.exp(1j * np.outer(psi_y, centred_y)) @ weights.T  # rows x n_x
+    z = np.exp(1j * psi_x)
+    out = np.broadcast_to(per_row[:, n_x - 1 : n_x], psi_x.shape).astype(complex)
+    for m in range(n_x - 2, -1, -1):
+        out *= z
+        out += per_row[:, m : m + 1]
+    return out * np.exp(-0.5j * (n_x - 1) * psi_x)
+
+
 def array_factor(
     u: npt.ArrayLike,
     v: npt.ArrayLike,
@@ -757,6 +801,9 @@ def array_factor(
     full = np.asarray(weights, dtype=complex)
     if full.ndim != 2:
         raise ValueError(f"weights must be SeparableWeights or a 2-D matrix, got {full.shape}")
+    if psi_x.ndim == 2 and psi_y.ndim == 2 and psi_y.shape[1] == 1:
+        # A grid whose v depends on the row only (an untilted face): sum over rows once.
+        return _rows_array_factor(full, psi_x, psi_y[:, 0])
     psi_x, psi_y = np.broadcast_arrays(psi_x, psi_y)
     return _general_array_factor(full, psi_x, psi_y)
 
@@ -806,6 +853,49 @@ def planar_array_fields(
     return DualPolField(*(af * component for component in element))
 
 
+def array_fields(
+    geometry: FaceGeometry,
+    element: object,
+    weights_h: SeparableWeights | npt.ArrayLike,
+    weights_v: SeparableWeights | npt.ArrayLike | None = None,
+    *,
+    dx_m: float,
+    dy_m: float,
+    frequency_hz: float,
+    norm: float,
+) -> DualPolField:
+    """Far field of a planar array with one weight set per port (all four components).
+
+    ``AF_H E_H`` and ``AF_V E_V``, each array factor divided by ``norm`` (the design's
+    broadside-steered coherent sum, so that channel errors and failures lower the peak).
+
+    Parameters
+    ----------
+    geometry : FaceGeometry
+        Directions in the face frame (:func:`face_geometry`).
+    element : object
+        Element model with ``field(geometry) -> DualPolField`` (:mod:`pasim_blocks.elements`).
+    weights_h, weights_v : SeparableWeights or array_like
+        Weights of the H and V ports (``weights_v`` None: the same as H).
+    dx_m, dy_m, frequency_hz : float
+        Spacings (m) and frequency (Hz).
+    norm : float
+        Divisor of both array factors.
+
+    Returns
+    -------
+    DualPolField
+        Complex components on the local (h, v) basis.
+    """
+    common = {"dx_m": dx_m, "dy_m": dy_m, "frequency_hz": frequency_hz}
+    af_h = array_factor(geometry.u, geometry.v, weights_h, **common) / norm
+    af_v = af_h if weights_v is None else array_factor(geometry.u, geometry.v, weights_v, **common)
+    if weights_v is not None:
+        af_v = af_v / norm
+    e = element.field(geometry)  # type: ignore[attr-defined]
+    return DualPolField(af_h * e.h_co, af_h * e.h_cross, af_v * e.v_co, af_v * e.v_cross)
+
+
 def _array_and_element(
     az_deg: npt.ArrayLike,
     el_deg: npt.ArrayLike,
@@ -818,7 +908,7 @@ def _array_and_element(
     face_tilt_deg: float,
 ) -> tuple[NDArray[np.complex128], DualPolField]:
     """Normalised array factor and element field, apart so callers multiply only what they use."""
-    geometry = _face_geometry(az_deg, el_deg, face_azimuth_deg, face_tilt_deg)
+    geometry = face_geometry(az_deg, el_deg, face_azimuth_deg, face_tilt_deg)
     af = array_factor(
         geometry.u, geometry.v, weights, dx_m=dx_m, dy_m=dy_m, frequency_hz=frequency_hz
     )
@@ -828,7 +918,7 @@ def _array_and_element(
     else:
         coherent = np.abs(np.asarray(weights)).sum()
     af /= coherent
-    return af, _patch_field(geometry, patch_m * frequency_hz / SPEED_OF_LIGHT)
+    return af, patch_field(geometry, patch_m * frequency_hz / SPEED_OF_LIGHT)
 
 
 def planar_array_power(
@@ -1042,3 +1132,40 @@ def first_sidelobe_db(angles_deg: npt.ArrayLike, power: npt.ArrayLike) -> float:
     if not levels:
         raise ValueError("no sidelobe found in the cut")
     return float(10.0 * np.log10(max(levels) / peak))
+
+
+def main_lobe_bounds(power: npt.ArrayLike) -> tuple[int, int]:
+    """Indices of the first minima (nulls) on either side of the highest sample of a cut.
+
+    Where the cut is monotone to an end, that end is returned.
+    """
+    p = np.asarray(power, dtype=float)
+    i0 = int(np.argmax(p))
+    right = np.flatnonzero(np.diff(p[i0:]) > 0)
+    left = np.flatnonzero(np.diff(p[i0::-1]) > 0)
+    hi = i0 + int(right[0]) if right.size else p.size - 1
+    lo = i0 - int(left[0]) if left.size else 0
+    return lo, hi
+
+
+def peak_sidelobe_db(angles_deg: npt.ArrayLike, power: npt.ArrayLike) -> float:
+    """Highest level outside the main lobe (beyond the first nulls) of a 1-D power cut.
+
+    Parameters
+    ----------
+    angles_deg : array_like
+        Strictly increasing angles of the cut, degrees.
+    power : array_like
+        Power pattern (linear) at those angles.
+
+    Returns
+    -------
+    float
+        dB relative to the main-lobe peak (-inf when the cut has no sidelobe).
+    """
+    _, p = _check_cut(angles_deg, power)
+    lo, hi = main_lobe_bounds(p)
+    outside = np.concatenate([p[:lo], p[hi + 1 :]])
+    if not outside.size or outside.max() <= 0:
+        return float("-inf")
+    return float(10.0 * np.log10(outside.max() / _parabolic_peak(p, int(np.argmax(p)))))

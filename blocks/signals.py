@@ -171,6 +171,20 @@ PATTERN = PortType(
                 "sr",
                 "two-way solid angle the radar constant of each beam is computed with",
             ),
+            "co_polar": Var(
+                "complex64",
+                ("beam", "polarization", "elevation_offset", "azimuth_offset"),
+                "1",
+                "one-way co-polar voltage pattern of the H (h) and V (v) port; |.|^2 = power",
+                required=False,
+            ),
+            "cross_polar": Var(
+                "complex64",
+                ("beam", "polarization", "elevation_offset", "azimuth_offset"),
+                "1",
+                "one-way cross-polar voltage pattern: the H port's v, the V port's h component",
+                required=False,
+            ),
             "polarization": Var("str", ("polarization",), "", "H, V"),
             "azimuth_offset_deg": Var(
                 "float64", ("azimuth_offset",), "degrees", "azimuth offset from the beam axis"
