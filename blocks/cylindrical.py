@@ -291,7 +291,7 @@ class CylindricalArray(ArrayAntenna):
 
     def _grid(self, first: int, step: int, el_deg: float, seed: int) -> np.ndarray:
         """Fields (4, el, az) of the beam ``step`` azimuth steps off the centre of the sector
-        starting at column ``first`` (-1: any, for an array without random errors).
+        starting at column ``first`` (which matters only with random errors).
 
         The grid directions sit at ``(step + i) * az_step`` from the sector centre and the
         columns at multiples of ``per_column`` steps (plus half a column for an even sector),
@@ -301,8 +301,10 @@ class CylindricalArray(ArrayAntenna):
 
         if self._memo is None:  # dropped when the block was pickled to a worker
             self._memo = {}
-        key = (first if self.channel.random else -1, step, round(el_deg, 9))
-        if key in self._memo:
+        # Patterns repeat from beam to beam only when the electronics draw nothing at random
+        # (then they depend on the offset alone); random sectors are not kept.
+        key = (-1, step, round(el_deg, 9))
+        if not self.channel.random and key in self._memo:
             return self._memo[key]
         n, per = self.p["excited_columns"], self.per_column
         half_span = (self.d_az.size - 1) // 2
@@ -323,7 +325,8 @@ class CylindricalArray(ArrayAntenna):
             kernel = np.zeros((1, (n - 1) * per + 1), complex)
             kernel[0, ::per] = weights[i // 2]
             out[i] = vertical * fftconvolve(f, kernel, mode="valid", axes=1)
-        self._memo[key] = out
+        if not self.channel.random:
+            self._memo[key] = out
         return out
 
     def fields_at(

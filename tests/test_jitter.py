@@ -107,3 +107,42 @@ def test_beams_draw_their_own_streams() -> None:
         for b in (np.arange(2), np.arange(2, 4))
     ]
     np.testing.assert_array_equal(whole, np.concatenate(parts))
+
+
+def test_graph_with_jitter_runs_at_the_expected_level() -> None:
+    """The block between the weather channel and the receiver and processor of the uniform
+    scene's graph: it validates and runs at the expected level, where the jitter shows as a
+    wider spectrum (WRADH up) and DBZH moves by 10 log10 E|G|^2 exactly."""
+    from pasim_graph.graphfile import BlockSpec, ConnectionSpec, Endpoint, read
+
+    from .conftest import GRAPHS
+
+    spec = read(GRAPHS / "uniform_ideal.yaml")
+    spec.blocks["jitter"] = BlockSpec(
+        "transmitter.jitter", {"amplitude_jitter_db": 0.5, "phase_jitter_deg": 10.0}
+    )
+    moved = {"weather.iq -> receiver.iq_in", "weather.echo_correlations -> ppp.echo_correlations"}
+    spec.connections = [c for c in spec.connections if str(c) not in moved]
+    spec.connections += [
+        ConnectionSpec(Endpoint("weather", "iq"), Endpoint("jitter", "iq_in")),
+        ConnectionSpec(Endpoint("jitter", "iq"), Endpoint("receiver", "iq_in")),
+        ConnectionSpec(
+            Endpoint("weather", "echo_correlations"), Endpoint("jitter", "echo_correlations_in")
+        ),
+        ConnectionSpec(
+            Endpoint("jitter", "echo_correlations"), Endpoint("ppp", "echo_correlations")
+        ),
+    ]
+    from pasim_graph.executor import LocalExecutor
+    from pasim_graph.graph import validate
+
+    out = {}
+    for name, graph_spec in (("jitter", spec), ("plain", read(GRAPHS / "uniform_ideal.yaml"))):
+        graph = validate(graph_spec, {"scan.azimuth_stop_deg": 3.0, "weather.method": "expected"})
+        out[name] = LocalExecutor(graph).run()
+    m = jitter_moments(0.5, 10.0, 1, 0.0)
+    dbz = (out["jitter"]["DBZH"] - out["plain"]["DBZH"]).values
+    assert np.isfinite(dbz).any()
+    np.testing.assert_allclose(dbz[np.isfinite(dbz)], 10 * np.log10(m["power"].real), atol=1e-3)
+    width = (out["jitter"]["WRADH"] - out["plain"]["WRADH"]).values
+    assert np.nanmean(width) > 0.1
