@@ -21,6 +21,8 @@ class PPISector(Block):
     ``azimuth_stop_deg`` (a sector may wrap through north), each dwelling ``pulses`` pulses of
     ``prt_s``. When the truth is connected and ``align_to_truth`` is set, each beam points at
     the nearest truth radial, so the scores compare a beam with the radial it is centred on.
+    0 to 360 deg is the full circle; a sector whose ends are equal, or narrower than one beam
+    spacing, is refused at validation.
     """
 
     role = "scan"
@@ -42,6 +44,35 @@ class PPISector(Block):
     pulses = Param(64, type="int", min=2, max=4096, doc="pulses per dwell (M)")
     prt_s = Param(1 / 300, units="s", min=1e-5, max=0.1, doc="pulse repetition time")
     align_to_truth = Param(True, type="bool", doc="point each beam at the nearest truth radial")
+
+    @classmethod
+    def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
+        def get(name: str) -> Any:
+            return params.get(name, cls.params[name].default)
+
+        start, stop = get("azimuth_start_deg"), get("azimuth_stop_deg")
+        step = get("beam_spacing_deg")
+        sector = f"the sector {start:g} to {stop:g} deg"
+        if stop - start != 360.0 and (stop - start) % 360.0 == 0.0:
+            # setup() would read equal ends as the full circle: refused, since it is more
+            # likely a mistake than a way of asking for 360 deg.
+            return [
+                (
+                    "parameter 'azimuth_stop_deg'",
+                    f"{sector} starts and stops at the same azimuth and holds no beam; for the "
+                    "full circle give azimuth_start_deg 0 and azimuth_stop_deg 360",
+                )
+            ]
+        span = (stop - start) % 360.0 or 360.0
+        if span < step * (1.0 - 1e-9):  # 0.7 to 1.7 deg is one 1-deg beam, not 0.99999...
+            return [
+                (
+                    "parameter 'azimuth_stop_deg'",
+                    f"{sector} spans {span:g} deg, less than one beam (beam_spacing_deg = "
+                    f"{step:g} deg); widen the sector or space the beams closer",
+                )
+            ]
+        return []
 
     def setup(self) -> None:
         self._cf = cf_attributes()

@@ -254,7 +254,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         )
         n = executor.local.plan.beam_count
         print(
-            f"running {args.graph}: {n} beams in chunks of {args.chunk}, seed {args.seed}",
+            f"running {args.graph}: {n} beams in chunks of {executor.options.chunk_beams}, "
+            f"seed {args.seed}",
             file=sys.stderr,
         )
         report = executor.run(

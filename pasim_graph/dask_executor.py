@@ -22,7 +22,7 @@ import shutil
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +37,7 @@ from .store import (
     beam_dimension,
     clear_store,
     create_volume,
+    describe_holder,
     discard_store,
     mark_complete,
     open_store,
@@ -219,6 +220,12 @@ class DaskExecutor:
         self.graph = graph
         self.options = options or RunOptions()
         self.local = LocalExecutor(graph, self.options)
+        n_beams = self.local.plan.beam_count
+        if self.options.chunk_beams > n_beams:
+            # One chunk holds the whole scan: a larger chunk changes nothing but the store's
+            # chunk shape, which zarr and dask cannot make of an --chunk of 2**64.
+            self.options = replace(self.options, chunk_beams=n_beams)
+            self.local.options = self.options
         self.workers, self.scheduler, self.progress = workers, scheduler, progress
         self._cluster: Any = None
 
@@ -245,11 +252,16 @@ class DaskExecutor:
         lock = open_store(path, overwrite=overwrite, resume=resume, command=command)
         try:
             if lock.previous:
-                log(f"taking over the lock of a run that stopped early ({lock.previous})")
+                log(
+                    "taking over the lock of a run that stopped early "
+                    f"({describe_holder(lock.previous)})"
+                )
             return self._run_locked(path, key, starts, attrs, log)
-        except BaseException:
+        except BaseException as exc:
             # Nothing computed was written yet: leave no empty store to trip the next run.
             discard_store(lock)
+            # A store refused as another run's is left as it was found, lock file included.
+            lock.release(restore=isinstance(exc, ResumeError))
             raise
         finally:
             lock.release()

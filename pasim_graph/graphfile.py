@@ -126,12 +126,25 @@ def _line(node: yaml.Node) -> int:
 
 
 def _value(node: yaml.Node) -> Any:
-    return _Loader(yaml.serialize(node)).get_single_data()
+    # Constructed from the node itself: writing it out and reading it back failed on an empty
+    # value (``frequency_hz:`` at the end of a file).
+    loader = _Loader("")
+    try:
+        return loader.construct_document(node)
+    finally:
+        loader.dispose()
 
 
 def parse_value(text: str) -> Any:
-    """Parse a scalar given on the command line the way the graph file would."""
-    return yaml.load(text, Loader=_Loader)
+    """Parse a scalar given on the command line the way the graph file would.
+
+    Text that is not valid YAML (``@``, ``*a``, ``!!python/...``) stays the text it is, for
+    the parameter's check to refuse it by name (or a ``str`` parameter to take it).
+    """
+    try:
+        return yaml.load(text, Loader=_Loader)
+    except yaml.YAMLError:
+        return text
 
 
 def read(path: str | Path) -> GraphSpec:
@@ -161,6 +174,9 @@ def parse(text: str, file: str = "<graph>") -> GraphSpec:
     spec = GraphSpec(file=file)
     try:
         root = yaml.compose(text, Loader=_Loader)
+        # Composing lets through tags the safe loader refuses to construct (!!python/...);
+        # constructing the document once finds them, with their line.
+        yaml.load(text, Loader=_Loader)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark is not None else 0

@@ -10,6 +10,7 @@ validation, the command line and the JSON interface.
 
 from __future__ import annotations
 
+import difflib
 import math
 import os
 from collections.abc import Mapping
@@ -178,10 +179,15 @@ class Schema:
     def check(self, ds: Any) -> list[str]:
         """What is wrong with an ``xarray.Dataset`` against this schema (empty when it fits)."""
         out: list[str] = []
+        absent = [n for n in self.variables if n not in ds.variables]
         for name in sorted(map(str, ds.variables)):
             if name not in self.variables:
+                # A misspelling names the variable it stands for, which is then missing.
+                near = difflib.get_close_matches(name, absent, n=1, cutoff=0.6)
+                hint = f"; a misspelling of {near[0]!r}, which is missing?" if near else ""
                 out.append(
                     f"variable {name!r} is not declared (declared: {', '.join(self.variables)})"
+                    + hint
                 )
         for name, var in self.variables.items():
             if name not in ds.variables:

@@ -73,6 +73,7 @@ class StoreLock:
         self.fresh = False
         #: The run made the store's directory.
         self.made_dir = False
+        self._previous_bytes = b""
 
     @classmethod
     def acquire(cls, store: Path, command: str) -> StoreLock:
@@ -89,10 +90,17 @@ class StoreLock:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError:
+                # The holder writes who it is just after taking the lock: a run that lost a
+                # race by microseconds waits for that, to name it.
                 holder = _read_lock(fd)
+                for _ in range(40):
+                    if holder:
+                        break
+                    time.sleep(0.025)
+                    holder = _read_lock(fd)
                 os.close(fd)
                 raise StoreError(
-                    f"{store} is being written by another run ({_describe_holder(holder)}); "
+                    f"{store} is being written by another run ({describe_holder(holder)}); "
                     "wait for it to finish or choose another --out"
                 ) from None
             # The previous owner may have deleted the file between our open and our flock:
@@ -104,13 +112,14 @@ class StoreLock:
             if same:
                 break
             os.close(fd)
+        previous_bytes = os.pread(fd, 65536, 0)
         previous = _read_lock(fd) or None
         host = socket.gethostname()
         if previous and previous.get("host") not in (None, host):
             fcntl.flock(fd, fcntl.LOCK_UN)
             os.close(fd)
             raise StoreError(
-                f"{store} is locked by a run on another host ({_describe_holder(previous)}); "
+                f"{store} is locked by a run on another host ({describe_holder(previous)}); "
                 f"if that run is gone, delete {path}"
             )
         me = {
@@ -122,17 +131,27 @@ class StoreLock:
         os.ftruncate(fd, 0)
         os.pwrite(fd, json.dumps(me).encode(), 0)
         os.fsync(fd)
-        return cls(path, fd, previous)
+        lock = cls(path, fd, previous)
+        lock._previous_bytes = previous_bytes
+        return lock
 
-    def release(self) -> None:
-        """Remove the lock file and drop the lock (idempotent)."""
+    def release(self, restore: bool = False) -> None:
+        """Remove the lock file and drop the lock (idempotent).
+
+        With ``restore``, a lock file taken over from a run that stopped early is put back as
+        it was instead (a refused command leaves the store as it found it).
+        """
         import fcntl
         import os
 
         if self._fd < 0:
             return
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(self.path)
+        if restore and self.previous:
+            os.ftruncate(self._fd, 0)
+            os.pwrite(self._fd, self._previous_bytes, 0)
+        else:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(self.path)
         fcntl.flock(self._fd, fcntl.LOCK_UN)
         os.close(self._fd)
         self._fd = -1
@@ -155,7 +174,8 @@ def _read_lock(fd: int) -> dict[str, Any]:
         return {}
 
 
-def _describe_holder(holder: dict[str, Any]) -> str:
+def describe_holder(holder: dict[str, Any]) -> str:
+    """Who holds (or held) a store's lock, as the lock file says, in words."""
     if not holder:
         return "owner unknown"
     text = f"pid {holder.get('pid')} on {holder.get('host')}, started {holder.get('started')}"
@@ -179,7 +199,9 @@ def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str)
         raise StoreError("--resume and --overwrite exclude each other: choose one")
     if path.exists() and not path.is_dir():
         raise StoreError(f"{path} is a file, not a store directory; choose another --out")
-    if path.is_dir() and not is_store(path) and set(_entries(path)) - {LOCK}:
+    # A store another run is just making holds only its lock and a marker it may not have
+    # finished writing: then the lock decides (and names that run).
+    if path.is_dir() and not is_store(path) and set(_entries(path)) - {LOCK, MARKER}:
         what = (
             "a Zarr store written by something else"
             if (path / "zarr.json").exists()
@@ -196,7 +218,9 @@ def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str)
     import os
 
     if not os.access(path, os.W_OK | os.X_OK):
-        raise StoreError(f"cannot write to {path}: permission denied")
+        readonly = bool(os.statvfs(path).f_flag & os.ST_RDONLY)
+        why = "the file system is read-only" if readonly else "permission denied"
+        raise StoreError(f"cannot write to {path}: {why}")
     lock = StoreLock.acquire(path, command)
     lock.made_dir = made_dir
     try:
@@ -221,7 +245,7 @@ def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str)
                 + "\n"
             )
     except BaseException:
-        lock.release()
+        lock.release(restore=True)
         raise
     return lock
 
@@ -259,18 +283,25 @@ def _entries(path: Path) -> list[str]:
         raise StoreError(f"cannot read {path}: {exc.strerror or exc}") from None
 
 
+# Consolidated metadata and fixed-width strings are zarr-python v3 extensions that xarray and
+# xradar read back fine; the warnings only say other readers may not. The store's marker and
+# lock files sit beside the Zarr hierarchy on purpose.
+_NOISE = (
+    ".*Consolidated metadata.*",
+    ".*does not have a Zarr V3 specification.*",
+    f"Object at ({MARKER}|{LOCK}) is not recognized as a component",
+)
+
+
 @contextlib.contextmanager
 def _quiet() -> Iterator[None]:
-    with warnings.catch_warnings():
-        # Consolidated metadata and fixed-width strings are zarr-python v3 extensions that
-        # xarray and xradar read back fine; the warnings only say other readers may not.
-        warnings.filterwarnings("ignore", message=".*Consolidated metadata.*")
-        warnings.filterwarnings("ignore", message=".*does not have a Zarr V3 specification.*")
-        # The store's marker and lock files sit beside the Zarr hierarchy on purpose.
-        warnings.filterwarnings(
-            "ignore", message=f"Object at ({MARKER}|{LOCK}) is not recognized as a component"
-        )
-        yield
+    # Filters are added for good, not inside warnings.catch_warnings(): that swaps the
+    # process-wide filter list in and out, so chunks writing from several threads at once
+    # restored each other's lists and the warnings leaked (seen in one run of three).
+    # Adding an identical filter again only moves it to the front.
+    for message in _NOISE:
+        warnings.filterwarnings("ignore", message=message)
+    yield
 
 
 def split_volume(sweep: xr.Dataset, attrs: dict[str, Any]) -> tuple[xr.Dataset, xr.Dataset]:
