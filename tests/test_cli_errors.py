@@ -99,6 +99,34 @@ def test_graph_without_blocks_is_refused_at_run(capsys, tmp_path):
     assert not out.exists()
 
 
+# Found by the property test (tests/test_cli_property.py): each raised a traceback.
+
+
+def test_yaml_tag_the_safe_loader_refuses_is_named(capsys):
+    err = refused(capsys, "validate", str(REFUSED / "python_tag.yaml"))
+    assert "python_tag.yaml:12: malformed YAML" in err and "python/object:os.system" in err
+
+
+def test_file_cut_after_a_key(capsys):
+    err = refused(capsys, "validate", str(REFUSED / "cut_after_a_key.yaml"))
+    assert "cut_after_a_key.yaml:1: missing 'blocks'" in err
+
+
+@pytest.mark.parametrize("value", ["@", "*a", "%", "\x1f", "!!python/name:os.system", "[1,"])
+def test_set_value_that_is_not_yaml_is_refused_by_the_parameter(value, capsys):
+    err = refused(capsys, "validate", TINY, "--set", f"scan.prt_s={value}")
+    assert f"block 'scan', parameter 'prt_s': expected float, found str {value!r}" in err
+
+
+def test_chunk_larger_than_the_scan(capsys, tmp_path):
+    """--chunk 2**64 on two beams: one chunk of two beams (zarr and dask took the 2**64)."""
+    out = tmp_path / "x.zarr"
+    code, err = pasim(capsys, "run", TINY, "--chunk", str(2**64), "--out", str(out))
+    assert code == 0, err
+    assert "2 beams in chunks of 2," in err
+    assert xr.open_datatree(out, engine="zarr").attrs["chunk_beams"] == 2
+
+
 # ---- where the store goes ---------------------------------------------------------------------
 
 
