@@ -135,6 +135,18 @@ def test_directory_not_ours_is_refused_and_untouched(not_ours, flags, capsys):
     assert tree_digest(root) == before
 
 
+@pytest.mark.parametrize("flags", [[], ["--overwrite"], ["--resume"]], ids=str)
+def test_a_marker_that_is_not_ours_does_not_make_a_store(flags, tmp_path, capsys):
+    """A file named like our marker, written by something else, is not our marker."""
+    root = tmp_path / "theirs"
+    root.mkdir()
+    (root / MARKER).write_text('{"format": "someone-else/2"}')
+    before = tree_digest(root)
+    code, err = pasim(capsys, "run", TINY, "--out", str(root), *flags)
+    assert code == 2 and f"{root} is not a store this program wrote" in err
+    assert tree_digest(root) == before
+
+
 def test_resume_and_overwrite_together_are_refused(tmp_path, capsys):
     root = fill(tmp_path / "project")
     before = tree_digest(root)
@@ -344,7 +356,7 @@ def test_two_runs_started_together_one_refused_one_intact(tmp_path, reference):
     assert codes == [0, 2], results
     (winner, _, _), (_, _, err) = sorted(results, key=lambda r: r[1])
     assert "Traceback" not in err
-    assert f"{out} is being written by another run (pid {winner} on" in err
+    assert f"{out} is being written by another run (pid {winner} on {socket.gethostname()}" in err
     assert "pasim run" in err and str(out) in err
     assert run_state(out)[0]["pasim_complete"] == "true" and not (out / LOCK).exists()
     assert_same_volume(out, reference)
