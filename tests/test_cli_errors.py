@@ -464,21 +464,26 @@ def test_build_prints_no_setuptools_warnings(tmp_path):
     """Building the wheel (with the installed setuptools, offline) warns of nothing: no
     deprecated license table, no data directory left out of the packages."""
     pytest.importorskip("setuptools")
+    # Built from a copy: setuptools writes build/ and egg-info next to the sources.
+    source = tmp_path / "src"
+    skip = shutil.ignore_patterns(".*", "build", "dist", "*.egg-info", "__pycache__", "*.zarr")
+    shutil.copytree(ROOT, source, ignore=skip)
+    wheels = tmp_path / "wheels"
     res = subprocess.run(
         [
             *(sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation"),
-            *("-v", "-w", str(tmp_path), "."),
+            *("-v", "-w", str(wheels), "."),
         ],
         capture_output=True,
         text=True,
-        cwd=ROOT,
+        cwd=source,
         timeout=600,
     )
     assert res.returncode == 0, res.stderr
     output = res.stdout + res.stderr
     assert "Deprecat" not in output and "SetuptoolsDeprecationWarning" not in output
     assert "_Warning" not in output and "!!" not in output
-    (wheel,) = tmp_path.glob("pasim_graph-*.whl")
+    (wheel,) = wheels.glob("pasim_graph-*.whl")
     import zipfile
 
     assert "pasim_blocks/data/KLBB20160601_150025_V06" in zipfile.ZipFile(wheel).namelist()
