@@ -507,6 +507,7 @@ def parser() -> argparse.ArgumentParser:
     sc.add_argument("store", help="a store written by `pasim run`")
     sc.add_argument("--json", action="store_true", help="print the scores as JSON")
     sc.set_defaults(func=cmd_score)
+    _add_studio_commands(sub)
     _add_plugin_commands(sub)
     return ap
 
@@ -582,6 +583,71 @@ def _add_plugin_commands(sub: Any) -> None:
         parser = sub.add_parser(name, help=command.help, description=command.help)
         command.configure(parser)
         parser.set_defaults(func=command.run)
+
+
+# -- studio, graph pictures and run pictures (issue 17); their modules load only when used --
+
+
+def cmd_studio(args: argparse.Namespace) -> int:
+    from .studio.server import serve
+
+    return serve(args.target, args.port, args.runs, args.open)
+
+
+def cmd_graph(args: argparse.Namespace) -> int:
+    from .graph_export import FORMATS, view
+
+    graph = _graph(args)
+    text = FORMATS[args.format](view(graph.spec, Path(args.graph).stem))
+    if args.out:
+        Path(args.out).write_text(text)
+        print(f"wrote {args.out}", file=sys.stderr)
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from .plot import NotAStoreError, plot_store
+
+    store = Path(args.store)
+    out = Path(args.out) if args.out else Path(store.name.removesuffix(".zarr") + ".png")
+    fields = [f.strip() for f in args.fields.split(",") if f.strip()] if args.fields else None
+    try:
+        notes = plot_store(store, out, fields)
+    except NotAStoreError as exc:
+        raise UserError(str(exc)) from None
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    for note in notes:
+        print(f"note: {note}", file=sys.stderr)
+    print(f"wrote {out}", file=sys.stderr)
+    return 0
+
+
+def _add_studio_commands(sub: Any) -> None:
+    st = sub.add_parser(
+        "studio", help="edit, run and compare graphs in the browser (a local web page)"
+    )
+    st.add_argument("target", nargs="?", default=".", metavar="GRAPH | FOLDER")
+    st.add_argument("--port", type=int, default=8765, help="port on 127.0.0.1 (0: any free one)")
+    st.add_argument(
+        "--runs", metavar="DIR", help="keep the runs' stores here (default: a temporary folder)"
+    )
+    st.add_argument("--open", action="store_true", help="open the page in the default browser")
+    st.set_defaults(func=cmd_studio)
+
+    gr = sub.add_parser("graph", help="a picture of a graph: SVG, Graphviz DOT or Mermaid")
+    gr.add_argument("graph")
+    gr.add_argument("--format", choices=["svg", "dot", "mermaid"], default="svg")
+    gr.add_argument("--out", metavar="FILE", help="write to FILE instead of printing")
+    gr.set_defaults(func=cmd_graph)
+
+    pl = sub.add_parser("plot", help="truth, estimate and error of each moment of a run as PPIs")
+    pl.add_argument("store")
+    pl.add_argument("--fields", metavar="FIELD[,FIELD...]", help="moments to draw (default: all)")
+    pl.add_argument("--out", metavar="FILE.png", help="default: the store's name with .png")
+    pl.set_defaults(func=cmd_plot)
 
 
 def _show_warning(

@@ -1,0 +1,297 @@
+"""Pictures of a run: truth, estimate and error of each moment as PPIs.
+
+``pasim plot STORE`` draws one row per moment, truth | estimate | error (estimate minus
+truth), in km east and north of the radar, with the usual weather-radar colour maps
+(cmweather's ChaseSpectral for reflectivity, balance for velocity and for every error, ...)
+and fixed limits per moment, so that two runs are drawn on the same scales. The studio shows
+the same pictures, one moment at a time (:func:`moment_figure`).
+
+Only matplotlib's object API is used (``Figure`` with the Agg canvas, never ``pyplot``): no
+global state, so the studio can draw from several threads and no display is ever needed.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+MOMENTS = ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH")
+
+
+@dataclass(frozen=True)
+class Style:
+    """How one moment is drawn: name, units, limits and colour maps of value and error."""
+
+    label: str
+    units: str
+    vmin: float
+    vmax: float
+    cmap: str
+    error_limit: float  # errors are drawn on [-limit, +limit]
+    error_cmap: str = "balance"
+
+
+STYLES: dict[str, Style] = {
+    "DBZH": Style("reflectivity", "dBZ", -10.0, 70.0, "ChaseSpectral", 5.0),
+    "ZDR": Style("differential reflectivity", "dB", -2.0, 6.0, "RefDiff", 1.0),
+    "RHOHV": Style("correlation coefficient", "1", 0.7, 1.05, "HomeyerRainbow", 0.05),
+    "PHIDP": Style("differential phase", "deg", 0.0, 360.0, "Wild25", 20.0),
+    # VRADH limits are the run's Nyquist interval (see _limits); these are the fallback.
+    "VRADH": Style("radial velocity", "m/s", -30.0, 30.0, "balance", 5.0),
+    "WRADH": Style("spectrum width", "m/s", 0.0, 8.0, "NWS_SPW", 3.0),
+}
+
+
+class NotAStoreError(ValueError):
+    """The path is not a finished PASIM-graph run."""
+
+
+def open_sweep(path: str | Path) -> tuple[xr.Dataset, dict[str, Any]]:
+    """The first sweep of a run and the root attributes; :class:`NotAStoreError` naming it."""
+    from .store import IncompleteStoreError, open_volume
+
+    if not Path(path).exists():
+        raise NotAStoreError(f"{path}: no such store")
+    try:
+        tree = open_volume(path)
+    except IncompleteStoreError as exc:
+        raise NotAStoreError(str(exc)) from None
+    except (OSError, ValueError, KeyError) as exc:
+        raise NotAStoreError(f"{path}: not a PASIM-graph store ({exc})") from None
+    if "sweep_0" not in tree.children:
+        raise NotAStoreError(f"{path}: no sweep_0 group; is this a PASIM-graph store?")
+    return tree["sweep_0"].to_dataset(), {str(k): v for k, v in tree.attrs.items()}
+
+
+def available(sweep: xr.Dataset, fields: list[str] | None = None) -> tuple[list[str], list[str]]:
+    """The moments that can be drawn, and a note for each asked-for one that cannot."""
+    asked = list(fields) if fields else list(MOMENTS)
+    drawn, notes = [], []
+    for name in asked:
+        if name not in STYLES:
+            notes.append(f"{name}: not a moment this plot knows ({', '.join(MOMENTS)}); skipped")
+        elif name not in sweep and f"truth_{name}" not in sweep:
+            notes.append(f"{name}: neither {name} nor truth_{name} is in the store; skipped")
+        else:
+            drawn.append(name)
+    return drawn, notes
+
+
+def _edges(centres: np.ndarray) -> np.ndarray:
+    """Cell edges halfway between centres, the ends extended by half a step."""
+    c = np.asarray(centres, dtype=np.float64)
+    if c.size == 1:
+        return np.array([c[0] - 0.5, c[0] + 0.5])
+    mid = (c[1:] + c[:-1]) / 2
+    return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])
+
+
+def ppi_mesh(sweep: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
+    """x (east) and y (north) of the gate corners in km, on the ground.
+
+    Ground distance is ``range * cos(elevation)``: at the low elevations of a PPI this differs
+    from a 4/3-earth beam path by well under a gate at the ranges of a Level-II sweep.
+    """
+    beam_dim = next(d for d in ("azimuth", "elevation", "time") if d in sweep.dims)
+    az = np.unwrap(np.deg2rad(np.asarray(sweep["azimuth"].values, dtype=np.float64)))
+    rng = np.asarray(sweep["range"].values, dtype=np.float64) / 1000.0
+    elev = float(np.nanmean(sweep["elevation"].values)) if "elevation" in sweep else 0.0
+    if beam_dim != "azimuth":
+        raise ValueError(f"a PPI needs beams along azimuth, this sweep runs along {beam_dim}")
+    a, r = np.meshgrid(_edges(az), _edges(rng) * math.cos(math.radians(elev)), indexing="ij")
+    return r * np.sin(a), r * np.cos(a)
+
+
+def _limits(sweep: xr.Dataset, name: str) -> tuple[float, float]:
+    style = STYLES[name]
+    if name == "VRADH":
+        if "nyquist_velocity" in sweep:
+            v = float(np.nanmax(sweep["nyquist_velocity"].values))
+            if math.isfinite(v) and v > 0:
+                return -v, v
+        period = sweep.get("error_VRADH", xr.DataArray()).attrs.get("period")
+        if period:
+            return -float(period) / 2, float(period) / 2
+    return style.vmin, style.vmax
+
+
+def _extent(sweep: xr.Dataset, names: list[str], x: np.ndarray, y: np.ndarray) -> list[float]:
+    """The box around every gate with data in the drawn fields (a margin of 5 %)."""
+    has = np.zeros((x.shape[0] - 1, x.shape[1] - 1), bool)
+    for n in names:
+        for v in (n, f"truth_{n}", f"error_{n}"):
+            if v in sweep:
+                has |= np.isfinite(np.asarray(sweep[v].values, dtype=np.float64))
+    if not has.any():
+        xs, ys = x, y
+    else:
+        rows, cols = np.nonzero(has)
+        r0, r1 = rows.min(), rows.max() + 1
+        c0, c1 = cols.min(), cols.max() + 1
+        xs, ys = x[r0 : r1 + 1, c0 : c1 + 1], y[r0 : r1 + 1, c0 : c1 + 1]
+    x0, x1, y0, y1 = float(xs.min()), float(xs.max()), float(ys.min()), float(ys.max())
+    pad = 0.05 * max(x1 - x0, y1 - y0, 1.0)
+    return [x0 - pad, x1 + pad, y0 - pad, y1 + pad]
+
+
+def _panel(ax: Any, fig: Any, sweep: xr.Dataset, var: str, title: str, **kw: Any) -> None:
+    import cmweather  # noqa: F401  (registers the weather-radar colour maps with matplotlib)
+
+    x, y = kw.pop("mesh")
+    units = kw.pop("units")
+    if var not in sweep:
+        ax.text(
+            0.5,
+            0.5,
+            f"{var}\nnot in the store",
+            ha="center",
+            va="center",
+            transform=ax.transAxes,
+            color="#666666",
+        )
+        ax.set_title(title)
+        return
+    data = np.ma.masked_invalid(np.asarray(sweep[var].values, dtype=np.float64))
+    ax.set_facecolor("#ececec")  # no data is grey, not the white of a zero on "balance"
+    mesh = ax.pcolormesh(x, y, data, shading="flat", rasterized=True, **kw)
+    fig.colorbar(mesh, ax=ax, label=units)
+    ax.set_title(title)
+
+
+def moment_row(
+    fig: Any,
+    axes: Any,
+    sweep: xr.Dataset,
+    name: str,
+    scores: dict[str, dict[str, Any]] | None = None,
+) -> None:
+    """Draw truth | estimate | error of one moment on three axes of ``fig``."""
+    style = STYLES[name]
+    x, y = ppi_mesh(sweep)
+    vmin, vmax = _limits(sweep, name)
+    extent = _extent(sweep, [name], x, y)
+    lim = style.error_limit
+    common = {"mesh": (x, y)}
+    _panel(
+        axes[0],
+        fig,
+        sweep,
+        f"truth_{name}",
+        f"truth {name}",
+        cmap=style.cmap,
+        vmin=vmin,
+        vmax=vmax,
+        units=style.units,
+        **common,
+    )
+    _panel(
+        axes[1],
+        fig,
+        sweep,
+        name,
+        f"estimate {name}",
+        cmap=style.cmap,
+        vmin=vmin,
+        vmax=vmax,
+        units=style.units,
+        **common,
+    )
+    _panel(
+        axes[2],
+        fig,
+        sweep,
+        f"error_{name}",
+        f"error {name} (estimate - truth)",
+        cmap=style.error_cmap,
+        vmin=-lim,
+        vmax=lim,
+        units=style.units,
+        **common,
+    )
+    s = (scores or {}).get(name)
+    if s and s.get("count"):
+        verdict = "pass" if s["pass"] else "fail"
+        axes[2].text(
+            0.02,
+            0.02,
+            f"bias {s['bias']:.3g}  std {s['std']:.3g}\n"
+            f"required {s['requirement_bias']:g} / {s['requirement_std']:g}: {verdict}",
+            transform=axes[2].transAxes,
+            fontsize=8,
+            va="bottom",
+            bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"},
+        )
+    for ax in axes:
+        # Zoom to the gates with data; the axes keep their box and widen the shorter side so
+        # that a km is as long east as north (fixed limits on both would fight the aspect).
+        ax.ignore_existing_data_limits = True
+        ax.update_datalim([(extent[0], extent[2]), (extent[1], extent[3])])
+        ax.autoscale_view(tight=True)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel("km east of the radar")
+    axes[0].set_ylabel(f"{name}\nkm north of the radar")
+
+
+def _figure(rows: int) -> Any:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(15.0, 4.2 * rows), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def store_figure(
+    sweep: xr.Dataset, names: list[str], title: str = "", scores: dict | None = None
+) -> Any:
+    """One figure, one row per moment: truth | estimate | error."""
+    fig = _figure(len(names))
+    axes = fig.subplots(len(names), 3, squeeze=False)
+    for row, name in zip(axes, names, strict=True):
+        moment_row(fig, row, sweep, name, scores)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def moment_figure(sweep: xr.Dataset, name: str, scores: dict | None = None) -> Any:
+    """The row of one moment as its own figure (the studio shows one per moment)."""
+    return store_figure(sweep, [name], scores=scores)
+
+
+def png_bytes(fig: Any, dpi: int = 90) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return buf.getvalue()
+
+
+def title_of(path: str | Path, attrs: dict[str, Any], sweep: xr.Dataset) -> str:
+    az = np.asarray(sweep["azimuth"].values) if "azimuth" in sweep else np.array([])
+    sector = f"azimuth {az.min():.1f}-{az.max():.1f} deg, " if az.size else ""
+    graph = attrs.get("graph_file", "")
+    return f"{Path(path).name}: {graph}, {sector}seed {attrs.get('seed', '?')}"
+
+
+def plot_store(
+    path: str | Path, out: str | Path, fields: list[str] | None = None, dpi: int = 90
+) -> list[str]:
+    """Draw a run to a PNG; return the notes about fields that were skipped.
+
+    Raises :class:`NotAStoreError` when ``path`` is not a finished run, and ``ValueError`` when
+    none of the fields can be drawn.
+    """
+    from .store import summarize
+
+    sweep, attrs = open_sweep(path)
+    names, notes = available(sweep, fields)
+    if not names:
+        raise ValueError(f"{path}: none of the fields can be drawn ({'; '.join(notes)})")
+    fig = store_figure(sweep, names, title_of(path, attrs, sweep), summarize(sweep))
+    Path(out).write_bytes(png_bytes(fig, dpi))
+    return notes

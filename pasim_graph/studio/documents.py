@@ -1,0 +1,663 @@
+"""Graphs as the studio edits them: JSON documents checked by the engine, swaps, files.
+
+A *document* is a graph file as JSON, lossless in both directions::
+
+    {"format": "pasim-graph/1",
+     "variables": {"frequency_hz": "2800000000.0"},
+     "blocks": {"hpa": {"type": "amplifier.saleh", "params": {"input_backoff_db": "0.0"}}},
+     "connections": [{"src": "tx", "src_port": "pulse", "dst": "hpa", "dst_port": "pulse_in"}]}
+
+Every value is kept as the text the canonical writer gives it (``0.0``, ``$frequency_hz``,
+``covariance``): JSON has one number type, and a float ``1.0`` that came back as the integer
+``1`` would change the file. A port is ``null`` where the file leaves it out (``tx -> hpa``).
+The page never interprets a value; the engine parses and checks it exactly as it does a file
+(:func:`check`), so a studio-saved file and a hand-edited one are interchangeable.
+"""
+
+from __future__ import annotations
+
+import difflib
+import hashlib
+import json
+import math
+import os
+import re
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from .. import registry
+from ..block import Block
+from ..graph import GraphError, validate
+from ..graphfile import (
+    FORMAT,
+    BlockSpec,
+    ConnectionSpec,
+    Endpoint,
+    GraphSpec,
+    _flow,
+    dumps,
+    parse,
+    parse_value,
+    read,
+)
+
+GRAPH_SUFFIXES = (".yaml", ".yml")
+LAYOUT_SUFFIX = ".layout.json"
+LAYOUT_FORMAT = "pasim-layout/1"
+
+# The graph file's own rules (graphfile._NAME and its connection pattern).
+_BLOCK_NAME = re.compile(r"^[A-Za-z_][\w-]*$")
+_PORT_NAME = re.compile(r"^\w+$")
+_MAX_TEXT = 10_000
+_MAX_BLOCKS = 1_000
+_MAX_CONNECTIONS = 10_000
+
+
+class RequestError(Exception):
+    """A request the studio refuses; ``status`` is the HTTP status, the message says why."""
+
+    def __init__(self, status: int, message: str, **extra: Any):
+        super().__init__(message)
+        self.status, self.message, self.extra = status, message, extra
+
+
+def sha256(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+# ---------------------------------------------------------------------------------------------
+# The served folder
+
+
+class Folder:
+    """The folder the studio serves: graph paths are relative to it and never leave it."""
+
+    def __init__(self, root: str | Path):
+        self.root = Path(root).resolve()
+
+    def resolve(self, rel: Any, *, must_exist: bool = True, suffixes=GRAPH_SUFFIXES) -> Path:
+        """The file a request names, refused unless it is a graph file inside the folder.
+
+        Refused: anything but a relative path, a ``..`` component, another suffix, and a path
+        that leaves the folder once symlinks are followed.
+        """
+        if not isinstance(rel, str) or not rel.strip():
+            raise RequestError(400, "expected 'path': a graph file relative to the served folder")
+        if "\x00" in rel or "\\" in rel or len(rel) > 1024:
+            raise RequestError(400, f"invalid path {rel!r}")
+        p = Path(rel)
+        if p.is_absolute() or rel.startswith("~"):
+            raise RequestError(
+                403, f"refused path {rel!r}: give a path relative to the served folder"
+            )
+        if ".." in p.parts:
+            raise RequestError(403, f"refused path {rel!r}: '..' would leave the served folder")
+        if not rel.endswith(tuple(suffixes)):
+            raise RequestError(
+                400, f"refused path {rel!r}: expected a file ending in {' or '.join(suffixes)}"
+            )
+        full = (self.root / p).resolve()
+        if not full.is_relative_to(self.root):
+            raise RequestError(
+                403, f"refused path {rel!r}: it leads outside the served folder (a symlink)"
+            )
+        if must_exist and not full.is_file():
+            raise RequestError(404, f"no graph file {rel!r} in the served folder")
+        return full
+
+    def rel(self, path: Path) -> str:
+        return path.resolve().relative_to(self.root).as_posix()
+
+    def graphs(self, limit: int = 1000) -> list[str]:
+        """Graph files in the folder and its subfolders (hidden folders and venvs skipped)."""
+        out: list[str] = []
+        for dirpath, dirnames, filenames in os.walk(self.root):
+            dirnames[:] = sorted(
+                d
+                for d in dirnames
+                if not d.startswith(".")
+                and d not in ("node_modules", "__pycache__")
+                and not d.endswith(".zarr")
+            )
+            for f in sorted(filenames):
+                if f.endswith(GRAPH_SUFFIXES):
+                    full = Path(dirpath) / f
+                    # Symlinks out of the folder are not listed (and refused if asked for).
+                    if full.resolve().is_relative_to(self.root):
+                        out.append(full.relative_to(self.root).as_posix())
+                if len(out) >= limit:
+                    return out
+        return out
+
+    def truths(self, limit: int = 200) -> list[str]:
+        """Files in the folder that start like a NEXRAD Level-II volume (``AR2V``/``ARCHIVE2``)."""
+        out: list[str] = []
+        for dirpath, dirnames, filenames in os.walk(self.root):
+            dirnames[:] = sorted(
+                d
+                for d in dirnames
+                if not d.startswith(".")
+                and d not in ("node_modules", "__pycache__")
+                and not d.endswith(".zarr")
+            )
+            for f in sorted(filenames):
+                full = Path(dirpath) / f
+                try:
+                    with open(full, "rb") as fh:
+                        head = fh.read(8)
+                except OSError:
+                    continue
+                if head.startswith((b"AR2V", b"ARCHIVE2")) and full.resolve().is_relative_to(
+                    self.root
+                ):
+                    out.append(full.relative_to(self.root).as_posix())
+                if len(out) >= limit:
+                    return out
+        return out
+
+    def truth_path(self, rel: Any) -> Path:
+        """A truth file a run asks for: inside the folder, an existing file."""
+        if not isinstance(rel, str):
+            raise RequestError(400, "expected 'truth' to be a path (or empty)")
+        try:
+            return self.resolve(rel, suffixes=("",))
+        except RequestError as exc:
+            raise RequestError(
+                exc.status, exc.message.replace("graph file", "truth file")
+            ) from None
+
+
+# ---------------------------------------------------------------------------------------------
+# Documents
+
+
+def doc_from_spec(spec: GraphSpec) -> dict[str, Any]:
+    """A parsed graph as a studio document (values as the canonical writer's text)."""
+    return {
+        "format": spec.format,
+        "variables": {k: _flow(v) for k, v in spec.variables.items()},
+        "blocks": {
+            name: {"type": b.type, "params": {k: _flow(v) for k, v in b.params.items()}}
+            for name, b in spec.blocks.items()
+        },
+        "connections": [
+            {"src": c.src.block, "src_port": c.src.port, "dst": c.dst.block, "dst_port": c.dst.port}
+            for c in spec.connections
+        ],
+    }
+
+
+def _text(value: Any, where: str) -> Any:
+    if not isinstance(value, str):
+        raise RequestError(400, f"{where}: expected the value as text, found {_json_type(value)}")
+    if len(value) > _MAX_TEXT:
+        raise RequestError(400, f"{where}: value longer than {_MAX_TEXT} characters")
+    return parse_value(value) if value.strip() else None
+
+
+def _json_type(value: Any) -> str:
+    return {
+        dict: "an object",
+        list: "a list",
+        str: "text",
+        bool: "true/false",
+        type(None): "null",
+    }.get(type(value), "a number")
+
+
+def _mapping(value: Any, where: str) -> dict[str, Any]:
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise RequestError(400, f"{where}: expected an object, found {_json_type(value)}")
+    return value
+
+
+def spec_from_doc(doc: Any, file: str = "<graph>") -> GraphSpec:
+    """The graph a document describes; :class:`RequestError` (400) when it is malformed.
+
+    Only the shape is checked here (what the file format itself could not hold); what the
+    engine checks (types, parameters, wires) is left to :func:`check`.
+    """
+    if not isinstance(doc, dict):
+        raise RequestError(400, f"'doc': expected a graph document object, found {_json_type(doc)}")
+    unknown = sorted(set(doc) - {"format", "variables", "blocks", "connections"})
+    if unknown:
+        raise RequestError(400, f"'doc': unknown key(s) {', '.join(unknown)}")
+    spec = GraphSpec(file=file, format=str(doc.get("format", FORMAT)))
+    for name, value in _mapping(doc.get("variables"), "'doc.variables'").items():
+        if not name or "\n" in name:
+            raise RequestError(400, f"invalid variable name {name!r}")
+        spec.variables[name] = _text(value, f"variable {name!r}")
+    blocks = _mapping(doc.get("blocks"), "'doc.blocks'")
+    if len(blocks) > _MAX_BLOCKS:
+        raise RequestError(400, f"'doc.blocks': more than {_MAX_BLOCKS} blocks")
+    for name, b in blocks.items():
+        if not _BLOCK_NAME.match(name):
+            raise RequestError(
+                400, f"invalid block name {name!r}: letters, digits, _ and -, not first a digit"
+            )
+        b = _mapping(b, f"block {name!r}")
+        extra = sorted(set(b) - {"type", "params"})
+        if extra:
+            raise RequestError(400, f"block {name!r}: unknown key(s) {', '.join(extra)}")
+        btype = b.get("type")
+        if not isinstance(btype, str) or not btype.strip() or "\n" in btype:
+            raise RequestError(400, f"block {name!r}: expected 'type', the block type name")
+        block = BlockSpec(type=btype)
+        for key, value in _mapping(b.get("params"), f"block {name!r} 'params'").items():
+            if not key or "\n" in key:
+                raise RequestError(400, f"block {name!r}: invalid parameter name {key!r}")
+            block.params[key] = _text(value, f"block {name!r}, parameter {key!r}")
+        spec.blocks[name] = block
+    conns = doc.get("connections") or []
+    if not isinstance(conns, list):
+        raise RequestError(400, "'doc.connections': expected a list")
+    if len(conns) > _MAX_CONNECTIONS:
+        raise RequestError(400, f"'doc.connections': more than {_MAX_CONNECTIONS} connections")
+    for i, c in enumerate(conns):
+        c = _mapping(c, f"connection {i + 1}")
+        ends = []
+        for side in ("src", "dst"):
+            end, port = c.get(side), c.get(f"{side}_port")
+            if not isinstance(end, str) or not _BLOCK_NAME.match(end):
+                raise RequestError(400, f"connection {i + 1}: invalid '{side}' block {end!r}")
+            if port is not None and (not isinstance(port, str) or not _PORT_NAME.match(port)):
+                raise RequestError(400, f"connection {i + 1}: invalid '{side}_port' {port!r}")
+            ends.append(Endpoint(end, port))
+        spec.connections.append(ConnectionSpec(ends[0], ends[1]))
+    return spec
+
+
+def canonical(doc: Any, file: str = "<graph>") -> tuple[GraphSpec, str]:
+    """The document's canonical text, and the graph as the engine reads that text back.
+
+    Reading the text back (rather than checking the spec directly) gives every problem the
+    line it has in the file that saving would write.
+    """
+    text = dumps(spec_from_doc(doc, file))
+    return parse(text, file), text
+
+
+def check(doc: Any, file: str, disk: str | None = None) -> dict[str, Any]:
+    """The engine's verdict on a document: the problems ``pasim validate`` would print.
+
+    Lines refer to the text the problems are about: the file on disk (``disk``) while the
+    document is what it holds, else the canonical text that saving would write.
+    """
+    spec, text = canonical(doc, file)
+    if disk is not None and disk != text:
+        on_disk = parse(disk, file)
+        if not on_disk.problems and doc_from_spec(on_disk) == doc:
+            spec = on_disk
+    try:
+        validate(spec)
+        problems: list[dict[str, Any]] = []
+    except GraphError as exc:
+        problems = [p.to_json() | {"text": str(p)} for p in exc.problems]
+    return {"valid": not problems, "problems": problems, "text": text}
+
+
+def diff(old: str, new: str, path: str) -> str:
+    lines = difflib.unified_diff(
+        old.splitlines(keepends=True), new.splitlines(keepends=True), f"a/{path}", f"b/{path}"
+    )
+    return "".join(lines)
+
+
+def open_graph(folder: Folder, rel: str) -> dict[str, Any]:
+    """Everything the page needs to show one graph file."""
+    path = folder.resolve(rel)
+    text = path.read_text()
+    spec = read(path)
+    spec.file = rel
+    doc = doc_from_spec(spec)
+    # A file the format cannot read fully (malformed YAML, a bad block entry) would lose the
+    # unreadable parts on save: it opens read-only, with the reader's own messages.
+    unreadable = [p.to_json() | {"text": str(p)} for p in parse(text, rel).problems]
+    result = check(doc, rel, text) if not unreadable else {"valid": False, "problems": unreadable}
+    return {
+        "path": rel,
+        "doc": doc,
+        "text": text,
+        "sha256": sha256(text),
+        "canonical": not unreadable and dumps(spec) == text,
+        "editable": not unreadable,
+        "validation": result,
+        "layout": read_layout(path) | {"auto": auto_layout(doc)},
+        "run_choices": run_choices(doc),
+    }
+
+
+def auto_layout(doc: Any) -> dict[str, Any]:
+    """The automatic layout of a document (the one ``pasim graph`` draws)."""
+    from ..graph_export import auto_layout_json, view
+
+    return auto_layout_json(view(spec_from_doc(doc)))
+
+
+# ---------------------------------------------------------------------------------------------
+# Swapping a block's type
+
+
+def _wires(spec: GraphSpec, block: str) -> list[ConnectionSpec]:
+    return [c for c in spec.connections if block in (c.src.block, c.dst.block)]
+
+
+def _port(ports: dict[str, Any], name: str | None) -> str | None:
+    if name is None:
+        return next(iter(ports)) if len(ports) == 1 else None
+    return name if name in ports else None
+
+
+def fit(spec: GraphSpec, block: str, cls: type[Block]) -> list[str]:
+    """Why a block of type ``cls`` would not fit the wires ``block`` has (empty: it fits).
+
+    Each wire keeps its text: its far end resolves as before, and this block's end must name
+    a port of the new type (or leave it out when the new type has exactly one on that side)
+    whose type equals the far end's (``PortType.mismatch``, the engine's own comparison).
+    A wire whose far end cannot be resolved (unknown type, unknown port) is left to
+    validation, which reports it either way.
+    """
+    reasons = []
+    for c in _wires(spec, block):
+        if c.src.block == c.dst.block:
+            continue
+        mine, other = (c.dst, c.src) if c.dst.block == block else (c.src, c.dst)
+        incoming = mine is c.dst
+        other_spec = spec.blocks.get(other.block)
+        other_cls = registry.get(other_spec.type) if other_spec else None
+        if other_cls is None:
+            continue
+        far_ports = other_cls.outputs if incoming else other_cls.inputs
+        far = _port(far_ports, other.port)
+        if far is None:
+            continue
+        near_ports = cls.inputs if incoming else cls.outputs
+        side = "input" if incoming else "output"
+        near = _port(near_ports, mine.port)
+        if near is None:
+            listed = ", ".join(near_ports) or "none"
+            if mine.port is None:
+                reasons.append(
+                    f"the wire '{c}' leaves out the {side} port, and {cls.type_name} has "
+                    f"{len(near_ports)} {side}s ({listed}), not exactly one"
+                )
+            else:
+                reasons.append(
+                    f"the wire '{c}' needs an {side} '{mine.port}', and {cls.type_name} has "
+                    f"none ({side}s: {listed})"
+                )
+            continue
+        out_t = other_cls.outputs[far].type if incoming else cls.outputs[near].type
+        in_t = cls.inputs[near].type if incoming else other_cls.inputs[far].type
+        diff = out_t.mismatch(in_t)
+        if diff:
+            mine_t, far_t = (in_t, out_t) if incoming else (out_t, in_t)
+            reasons.append(
+                f"the wire '{c}' carries {far_t.describe()}, and the {side} '{near}' of "
+                f"{cls.type_name} is {mine_t.describe()} ({'; '.join(diff)})"
+            )
+    return reasons
+
+
+def subsystem(type_name: str) -> str:
+    return type_name.split(".", 1)[0] if "." in type_name else type_name
+
+
+def swap_options(doc: Any, block: str) -> dict[str, Any]:
+    """Every registered type as a candidate for ``block``: whether it fits, and why not."""
+    spec = spec_from_doc(doc)
+    if block not in spec.blocks:
+        raise RequestError(404, f"no block named {block!r} in the graph")
+    current = spec.blocks[block]
+    into = [c.dst.port for c in _wires(spec, block) if c.dst.block == block]
+    options = []
+    for name, cls in registry.all_blocks().items():
+        if name == current.type:
+            continue
+        reasons = fit(spec, block, cls)
+        connected = {_port(cls.inputs, p) for p in into}
+        unwired = [p.name for p in cls.inputs.values() if p.required and p.name not in connected]
+        options.append(
+            {
+                "type": name,
+                "group": subsystem(name),
+                "doc": cls.doc(),
+                "fits": not reasons,
+                "reasons": reasons,
+                "drops": sorted(k for k in current.params if k not in cls.params),
+                "needs_wiring": unwired,
+            }
+        )
+    # Same subsystem first, then whatever fits, then the rest by name.
+    mine = subsystem(current.type)
+    options.sort(key=lambda o: (o["group"] != mine, not o["fits"], o["type"]))
+    return {"block": block, "current": current.type, "options": options}
+
+
+def swap(doc: Any, block: str, new_type: Any, stash: Any = None) -> dict[str, Any]:
+    """Change ``block`` to ``new_type`` if it fits the block's wires (409 with the reasons).
+
+    Parameters the new type does not declare are dropped and returned, so that the page can
+    say so and keep them; ``stash`` holds parameters dropped by earlier swaps of this block,
+    and those the new type declares come back (a swap there and back restores the block).
+    """
+    spec = spec_from_doc(doc)
+    if block not in spec.blocks:
+        raise RequestError(404, f"no block named {block!r} in the graph")
+    if not isinstance(new_type, str) or not new_type:
+        raise RequestError(400, "expected 'type': the block type to swap to")
+    cls = registry.get(new_type)
+    if cls is None:
+        err = registry.load_error(new_type)
+        why = f"failed to load: {err}" if err else "is not a registered block type"
+        raise RequestError(400, f"cannot swap '{block}' to {new_type!r}: it {why}")
+    reasons = fit(spec, block, cls)
+    if reasons:
+        raise RequestError(
+            409,
+            f"cannot swap '{block}' to {new_type}: its ports do not fit the block's wires: "
+            + "; ".join(reasons),
+            reasons=reasons,
+        )
+    old = doc["blocks"][block]
+    params = dict(old.get("params") or {})
+    stash = {k: v for k, v in _mapping(stash, "'stash'").items() if isinstance(v, str)}
+    dropped = {k: v for k, v in params.items() if k not in cls.params}
+    restored = {k: v for k, v in stash.items() if k in cls.params and k not in params}
+    kept = {k: v for k, v in params.items() if k in cls.params} | restored
+    new_doc = json.loads(json.dumps(doc))
+    new_doc["blocks"][block] = {"type": new_type, "params": dict(sorted(kept.items()))}
+    return {"doc": new_doc, "dropped": dropped, "restored": restored}
+
+
+# ---------------------------------------------------------------------------------------------
+# Palette and run choices
+
+
+def palette() -> dict[str, Any]:
+    """Every registered block type's interface, grouped by subsystem; broken plugins named."""
+    from ..graph_export import HEADER_HEIGHT, NODE_PAD, NODE_WIDTH, ROW_HEIGHT, kind_colors
+
+    blocks = registry.all_blocks()
+    faces = []
+    for name, cls in blocks.items():
+        face = json.loads(json.dumps(cls.interface(), default=str))
+        face["group"] = subsystem(name)
+        face["per_chunk"] = cls.runs_per_chunk()
+        for p in [*face["inputs"], *face["outputs"]]:
+            p["type"]["text"] = describe(p["type"])
+        faces.append(face)
+    groups: dict[str, list[str]] = {}
+    for face in faces:
+        groups.setdefault(face["group"], []).append(face["type"])
+    broken = [
+        {"type": n, "error": registry.load_error(n) or "failed to load"}
+        for n in registry.names()
+        if n not in blocks
+    ]
+    return {
+        "blocks": faces,
+        "groups": [{"name": g, "types": t} for g, t in sorted(groups.items())],
+        "broken": broken,
+        "kind_colors": kind_colors(),
+        # The block geometry the automatic layout assumes; the page draws blocks with it.
+        "geometry": {
+            "node_width": NODE_WIDTH,
+            "header_height": HEADER_HEIGHT,
+            "row_height": ROW_HEIGHT,
+            "node_pad": NODE_PAD,
+        },
+    }
+
+
+def describe(t: dict[str, Any]) -> str:
+    from ..graph_export import describe_type
+
+    return describe_type(t)
+
+
+def run_choices(doc: Any) -> dict[str, Any]:
+    """The fidelity levels a run of this graph can pick, and the scan sector it has.
+
+    Levels are the rungs of the one block that declares a ``fidelity_ladder`` (as ``pasim
+    tradeoff`` uses them), or else the ``choices`` of the one block's ``method`` parameter.
+    """
+    try:
+        spec = spec_from_doc(doc)
+    except RequestError:
+        return {"levels": [], "sector": None}
+    classes = {n: registry.get(b.type) for n, b in spec.blocks.items()}
+    known = {n: c for n, c in classes.items() if c is not None}
+    levels: list[dict[str, Any]] = []
+    owners = [n for n, c in known.items() if c.fidelity_ladder]
+    methods = [n for n, c in known.items() if "method" in c.params and c.params["method"].choices]
+    if len(owners) == 1:
+        name = owners[0]
+        cls = known[name]
+        keys = list(dict.fromkeys(k for _, p in cls.fidelity_ladder for k in p))
+        for label, settings in cls.fidelity_ladder:
+            # Every rung sets the same keys, so a level never inherits another's setting.
+            full = {k: settings.get(k, cls.params[k].default) for k in keys if k in cls.params}
+            levels.append(
+                {"label": label, "block": name, "set": {k: _flow(v) for k, v in full.items()}}
+            )
+    elif len(methods) == 1:
+        name = methods[0]
+        for choice in known[name].params["method"].choices or ():
+            levels.append({"label": str(choice), "block": name, "set": {"method": _flow(choice)}})
+    sector = None
+    scans = [n for n, c in known.items() if c.role == "scan"]
+    if len(scans) == 1:
+        cls = known[scans[0]]
+        vals = []
+        for k in ("azimuth_start_deg", "azimuth_stop_deg"):
+            if k not in cls.params:
+                break
+            raw = spec.blocks[scans[0]].params.get(k, cls.params[k].default)
+            if isinstance(raw, str) and raw.startswith("$"):
+                raw = spec.variables.get(raw[1:])
+            vals.append(raw)
+        if len(vals) == 2 and all(isinstance(v, (int, float)) for v in vals):
+            sector = f"{vals[0]:g}:{vals[1]:g}"
+    return {"levels": levels, "sector": sector}
+
+
+# ---------------------------------------------------------------------------------------------
+# Files: atomic writes, the layout side file
+
+
+def write_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` all at once: a temporary file beside it, then a rename."""
+    mode = path.stat().st_mode & 0o777 if path.exists() else None
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        if mode is not None:
+            os.chmod(tmp, mode)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def save(
+    folder: Folder, rel: Any, doc: Any, base_sha256: Any = None, overwrite: Any = False
+) -> dict[str, Any]:
+    """Write a document's canonical text to a graph file of the folder.
+
+    Everything is checked before the file is touched. A file changed on disk since the page
+    read it (``base_sha256`` differs) is not overwritten unless ``overwrite`` is true, and
+    neither is an existing file the page did not open ("save as" onto it).
+    """
+    path = folder.resolve(rel, must_exist=False)
+    _, text = canonical(doc, rel)
+    if not path.parent.is_dir():
+        raise RequestError(400, f"cannot save {rel!r}: its folder does not exist")
+    if overwrite is not True and overwrite is not False:
+        raise RequestError(400, "'overwrite' must be true or false")
+    if base_sha256 is not None and not isinstance(base_sha256, str):
+        raise RequestError(400, "'base_sha256' must be text")
+    old = path.read_text() if path.exists() else ""
+    if path.exists() and not overwrite:
+        if base_sha256 is None:
+            raise RequestError(409, f"{rel} exists; save over it only with 'overwrite'")
+        if sha256(old) != base_sha256:
+            raise RequestError(
+                409, f"{rel} changed on disk since it was opened; reload it or save with overwrite"
+            )
+    changes = diff(old, text, rel)
+    if text != old or not path.exists():
+        write_atomic(path, text)
+    return {"path": rel, "sha256": sha256(text), "text": text, "diff": changes}
+
+
+def layout_file(graph: Path) -> Path:
+    """``generic_radar.yaml`` -> ``generic_radar.layout.json`` beside it."""
+    return graph.with_name(graph.stem + LAYOUT_SUFFIX)
+
+
+def read_layout(graph: Path) -> dict[str, Any]:
+    path = layout_file(graph)
+    if not path.exists():
+        return {"positions": {}, "note": ""}
+    try:
+        data = json.loads(path.read_text())
+        positions = {
+            str(k): [float(v[0]), float(v[1])]
+            for k, v in data.get("positions", {}).items()
+            if isinstance(v, list) and len(v) == 2
+        }
+        return {"positions": positions, "note": ""}
+    except (OSError, ValueError, TypeError, AttributeError) as exc:
+        return {"positions": {}, "note": f"{path.name} is unreadable ({exc}); using automatic"}
+
+
+def write_layout(folder: Folder, rel: Any, positions: Any) -> dict[str, Any]:
+    """Save block positions to the side file of a graph (never into the graph file)."""
+    graph = folder.resolve(rel)
+    positions = _mapping(positions, "'positions'")
+    clean: dict[str, list[float]] = {}
+    for name, xy in positions.items():
+        if not _BLOCK_NAME.match(name):
+            raise RequestError(400, f"'positions': invalid block name {name!r}")
+        if (
+            not isinstance(xy, list)
+            or len(xy) != 2
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in xy)
+            or not all(math.isfinite(v) and abs(v) < 1e7 for v in xy)
+        ):
+            raise RequestError(400, f"'positions': block {name!r} needs [x, y], finite numbers")
+        clean[name] = [round(float(xy[0]), 1), round(float(xy[1]), 1)]
+    text = json.dumps(
+        {"format": LAYOUT_FORMAT, "graph": graph.name, "positions": dict(sorted(clean.items()))},
+        indent=1,
+    )
+    path = layout_file(graph)
+    write_atomic(path, text + "\n")
+    return {"path": folder.rel(path), "positions": clean}
