@@ -23,11 +23,11 @@ from .graphfile import GraphSpec
 
 #: Geometry shared with the studio's block nodes (its CSS uses the same numbers), so that the
 #: automatic layout leaves room for every port row.
-NODE_WIDTH = 240
+NODE_WIDTH = 210
 HEADER_HEIGHT = 44
 ROW_HEIGHT = 20
 NODE_PAD = 10
-GAP_X = 90
+GAP_X = 70
 GAP_Y = 36
 
 # Distinct on white and, as far as 16 colours can be, for colour-blind readers (Okabe-Ito

@@ -122,12 +122,16 @@ def _limits(sweep: xr.Dataset, name: str) -> tuple[float, float]:
 
 
 def _extent(sweep: xr.Dataset, names: list[str], x: np.ndarray, y: np.ndarray) -> list[float]:
-    """The box around every gate with data in the drawn fields (a margin of 5 %)."""
+    """The box around the weather: gates where the truth has data (a margin of 5 %).
+
+    An estimate exists at every gate, noise included, so it would always ask for the whole
+    sector; it decides only when the store holds no truth.
+    """
     has = np.zeros((x.shape[0] - 1, x.shape[1] - 1), bool)
     for n in names:
-        for v in (n, f"truth_{n}", f"error_{n}"):
-            if v in sweep:
-                has |= np.isfinite(np.asarray(sweep[v].values, dtype=np.float64))
+        truth = [v for v in (f"truth_{n}", f"error_{n}") if v in sweep]
+        for v in truth or ([n] if n in sweep else []):
+            has |= np.isfinite(np.asarray(sweep[v].values, dtype=np.float64))
     if not has.any():
         xs, ys = x, y
     else:

@@ -78,6 +78,7 @@ function Studio() {
   const positions = useRef({});
   const stash = useRef({});
   const validateSeq = useRef(0);
+  const history = useRef({ undo: [], redo: [] }); // documents before (and after) each edit
 
   const faces = useMemo(
     () => Object.fromEntries((palette?.blocks || []).map((b) => [b.type, b])),
@@ -96,6 +97,7 @@ function Studio() {
         const g = await api(`graph?path=${encodeURIComponent(path)}`);
         positions.current = { ...g.layout.auto.positions, ...g.layout.positions };
         stash.current = {};
+        history.current = { undo: [], redo: [] };
         setAuto(g.layout.auto);
         setGraph({ path: g.path, sha256: g.sha256, canonical: g.canonical, editable: g.editable });
         setDoc(g.doc);
@@ -200,11 +202,15 @@ function Studio() {
   // -- edits: every one is checked by the engine before the page takes it -------------------
 
   const commit = useCallback(
-    async (next) => {
+    async (next, { record = true } = {}) => {
       const seq = ++validateSeq.current;
       try {
         const v = await api("validate", { path: graph?.path, doc: next });
         if (seq !== validateSeq.current) return true;
+        if (record) {
+          history.current.undo.push(doc);
+          history.current.redo = [];
+        }
         setDoc(next);
         setValidation(v);
         return true;
@@ -213,7 +219,18 @@ function Studio() {
         return false;
       }
     },
-    [graph, say],
+    [graph, doc, say],
+  );
+
+  const undo = useCallback(
+    async (redo = false) => {
+      const [from, to] = redo ? ["redo", "undo"] : ["undo", "redo"];
+      const prev = history.current[from].pop();
+      if (!prev) return;
+      if (await commit(prev, { record: false })) history.current[to].push(doc);
+      else history.current[from].push(prev);
+    },
+    [commit, doc],
   );
 
   const addBlock = useCallback(
@@ -302,6 +319,7 @@ function Studio() {
     async (type) => {
       const block = selection?.id;
       if (!block) return;
+      setSwapMessage(null);
       try {
         const res = await api("swap", { path: graph.path, doc, block, type, stash: stash.current[block] || {} });
         if (!(await commit(res.doc))) return;
@@ -444,6 +462,7 @@ function Studio() {
     if (!path) return;
     positions.current = {};
     stash.current = {};
+    history.current = { undo: [], redo: [] };
     setGraph({ path, sha256: null, canonical: true, editable: true });
     setAuto({ positions: {}, routes: {} });
     setSelection(null);
@@ -467,14 +486,20 @@ function Studio() {
 
   useEffect(() => {
     const onKey = (e) => {
-      if ((e.ctrlKey || e.metaKey) && e.key === "s") {
+      if (!(e.ctrlKey || e.metaKey)) return;
+      const inField = ["INPUT", "SELECT", "TEXTAREA"].includes(document.activeElement?.tagName);
+      if (e.key === "s") {
         e.preventDefault();
         if (editable) save();
+      } else if ((e.key === "z" || e.key === "Z" || e.key === "y") && !inField && editable) {
+        // In a text field, the field's own undo; on the canvas, the graph's.
+        e.preventDefault();
+        undo(e.key === "y" || e.shiftKey);
       }
     };
     window.addEventListener("keydown", onKey);
     return () => window.removeEventListener("keydown", onKey);
-  }, [save, editable]);
+  }, [save, undo, editable]);
 
   // -- runs -------------------------------------------------------------------------------
 
@@ -579,6 +604,23 @@ function Studio() {
             ))}
           </select>
           <button type="button" onClick={newGraph}>New</button>
+          <button
+            type="button"
+            onClick={() => undo(false)}
+            disabled={!editable || !history.current.undo.length}
+            title="undo the last edit (Ctrl+Z)"
+            data-testid="undo"
+          >
+            Undo
+          </button>
+          <button
+            type="button"
+            onClick={() => undo(true)}
+            disabled={!editable || !history.current.redo.length}
+            title="redo (Ctrl+Shift+Z)"
+          >
+            Redo
+          </button>
           <button type="button" className="primary" onClick={() => save()} disabled={!editable} data-testid="save-button">
             Save
           </button>

@@ -164,9 +164,11 @@ export function RunResult({ run }) {
       )}
       {run.notes?.length > 0 && run.notes.map((n) => <div className="message warn" key={n}>note: {n}</div>)}
       {run.state === "done" && (
-        <>
-          <ScoreTable scores={run.scores} />
-          {first(run.scores) && <div className="muted">scored gates: {first(run.scores).scored}</div>}
+        <div className="result-body">
+          <div className="result-scores">
+            <ScoreTable scores={run.scores} />
+            {first(run.scores) && <div className="muted scored-rule">scored gates: {first(run.scores).scored}</div>}
+          </div>
           <div className="images">
             {run.images.map((m) => (
               <figure key={m} data-testid={`ppi-${m}`}>
@@ -174,7 +176,7 @@ export function RunResult({ run }) {
               </figure>
             ))}
           </div>
-        </>
+        </div>
       )}
     </div>
   );
@@ -194,6 +196,7 @@ export function Comparison({ data }) {
       <div className="result-head">
         <b>A</b> {a.label} &nbsp;vs&nbsp; <b>B</b> {b.label}
       </div>
+      <div className="compare-top">
       <table className="scores" data-testid="compare-table">
         <thead>
           <tr>
@@ -239,6 +242,7 @@ export function Comparison({ data }) {
             </pre>
           </div>
         )}
+      </div>
       </div>
       <div className="images side-by-side">
         {a.images.map((m) => (
