@@ -75,25 +75,16 @@ def kind_color(kind: str, colors: dict[str, str] | None = None) -> str:
     return _PALETTE[hashlib.sha256(kind.encode()).digest()[0] % len(_PALETTE)]
 
 
-def describe_type(t: dict[str, Any]) -> str:
-    """``kind[dtype; (dims); units]`` from a port type's JSON, as ``PortType.describe``."""
-    dims = ", ".join(t.get("dims", []))
-    return f"{t.get('kind', '?')}[{t.get('dtype', '?')}; ({dims}); {t.get('units', '?')}]"
-
-
 @dataclass
 class PortView:
     name: str
     type: dict[str, Any] | None  # the port type's JSON; None when the block type is unknown
     required: bool = True
+    text: str = "unknown type"  # the engine's PortType.describe()
 
     @property
     def kind(self) -> str:
         return str(self.type.get("kind", "")) if self.type else ""
-
-    @property
-    def text(self) -> str:
-        return describe_type(self.type) if self.type else "unknown type"
 
 
 @dataclass
@@ -147,7 +138,21 @@ class GraphView:
 
 
 def view(spec: GraphSpec, name: str = "graph") -> GraphView:
-    """What to draw: every block with its declared ports, every wire with its type."""
+    """What to draw: every block with its declared ports, every wire with its type.
+
+    Parameters
+    ----------
+    spec : GraphSpec
+        The graph as read (it need not validate).
+    name : str
+        The picture's title.
+
+    Returns
+    -------
+    GraphView
+        Blocks (with the ports of their registered interface, or for an unknown type the
+        ports its wires name) and wires (ports resolved where the file leaves them out).
+    """
     nodes: dict[str, NodeView] = {}
     for block, b in sorted(spec.blocks.items()):
         cls = registry.get(b.type)
@@ -155,12 +160,19 @@ def view(spec: GraphSpec, name: str = "graph") -> GraphView:
             nodes[block] = NodeView(block, b.type, False)
             continue
         face = cls.interface()
+        ins, outs = cls.inputs, cls.outputs
         nodes[block] = NodeView(
             block,
             b.type,
             True,
-            [PortView(p["name"], p["type"], bool(p.get("required", True))) for p in face["inputs"]],
-            [PortView(p["name"], p["type"]) for p in face["outputs"]],
+            [
+                PortView(p["name"], p["type"], p["required"], ins[p["name"]].type.describe())
+                for p in face["inputs"]
+            ],
+            [
+                PortView(p["name"], p["type"], True, outs[p["name"]].type.describe())
+                for p in face["outputs"]
+            ],
         )
     wires = []
     for c in sorted(spec.connections, key=str):

@@ -254,7 +254,25 @@ def _figure(rows: int) -> Any:
 def store_figure(
     sweep: xr.Dataset, names: list[str], title: str = "", scores: dict | None = None
 ) -> Any:
-    """One figure, one row per moment: truth | estimate | error."""
+    """One figure, one row per moment: truth | estimate | error.
+
+    Parameters
+    ----------
+    sweep : xarray.Dataset
+        A stored sweep (``azimuth`` x ``range``) with ``<moment>``, ``truth_<moment>`` and
+        ``error_<moment>`` as far as the run wrote them.
+    names : list of str
+        Moments to draw (keys of :data:`STYLES`).
+    title : str
+        Figure title.
+    scores : dict, optional
+        ``store.summarize`` of the sweep: bias, std and verdict go on the error panels.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        A figure on the Agg canvas (no pyplot, no display).
+    """
     fig = _figure(len(names))
     axes = fig.subplots(len(names), 3, squeeze=False)
     for row, name in zip(axes, names, strict=True):
@@ -285,10 +303,30 @@ def title_of(path: str | Path, attrs: dict[str, Any], sweep: xr.Dataset) -> str:
 def plot_store(
     path: str | Path, out: str | Path, fields: list[str] | None = None, dpi: int = 90
 ) -> list[str]:
-    """Draw a run to a PNG; return the notes about fields that were skipped.
+    """Draw a run to a PNG: one row per moment, truth | estimate | error.
 
-    Raises :class:`NotAStoreError` when ``path`` is not a finished run, and ``ValueError`` when
-    none of the fields can be drawn.
+    Parameters
+    ----------
+    path : path
+        A finished run's store (``pasim run --out``).
+    out : path
+        The PNG to write.
+    fields : list of str, optional
+        Moments to draw, in this order; default every moment the store has.
+    dpi : int
+        Resolution of the PNG.
+
+    Returns
+    -------
+    list of str
+        A note for each asked-for field that was skipped, and why.
+
+    Raises
+    ------
+    NotAStoreError
+        ``path`` is not a finished PASIM-graph run.
+    ValueError
+        None of the fields can be drawn.
     """
     from .store import summarize
 

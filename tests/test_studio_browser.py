@@ -319,3 +319,38 @@ def test_run_a_sector_then_compare_before_and_after_a_swap(page, studio):
     assert "-  antenna:  {type: antenna.pencil" in diff
     assert "+  antenna:  {type: antenna.ideal" in diff
     assert page.locator("[data-testid=compare-ppi-DBZH] img").count() == 2
+
+
+def test_a_refused_path_is_shown_and_the_page_stays_usable(browser, studio):
+    page = browser.new_page()
+    try:
+        page.goto(f"http://127.0.0.1:{studio.port}/?token={TOKEN}&graph=../outside.yaml")
+        notice = page.wait_for_selector("[data-testid=notice]").inner_text()
+        assert "refused path '../outside.yaml': '..' would leave the served folder" in notice
+        page.select_option("[data-testid=graph-select]", GENERIC)
+        page.wait_for_selector("[data-testid=block-hpa]")
+        # Without the token the server answers nothing but the refusal.
+        page.goto(f"http://127.0.0.1:{studio.port}/?graph={GENERIC}")
+        assert "missing or wrong token" in page.inner_text("body")
+    finally:
+        page.close()
+
+
+def test_variables_changes_tab_and_svg_export(page, folder):
+    import xml.etree.ElementTree as ET
+
+    page.click(".react-flow__pane", position={"x": 30, "y": 30})  # select nothing: the graph
+    field = page.locator("[data-testid=inspector-graph] input[type=text] >> nth=0")
+    assert field.input_value() == "2800000000.0"
+    field.fill("2700000000.0")
+    field.press("Enter")
+    page.wait_for_selector("[data-testid=unsaved]")
+    page.click("[data-testid=tab-changes]")
+    changes = page.inner_text("[data-testid=changes]")
+    assert "-  frequency_hz: 2800000000.0" in changes
+    assert "+  frequency_hz: 2700000000.0" in changes
+    with page.expect_download() as download:
+        page.click("text=SVG")
+    svg = ET.parse(download.value.path()).getroot()
+    ids = {g.get("id") for g in svg.iter("{http://www.w3.org/2000/svg}g")}
+    assert {f"block-{b}" for b in read(folder / GENERIC).blocks} <= ids

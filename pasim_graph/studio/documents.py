@@ -438,11 +438,32 @@ def swap_options(doc: Any, block: str) -> dict[str, Any]:
 
 
 def swap(doc: Any, block: str, new_type: Any, stash: Any = None) -> dict[str, Any]:
-    """Change ``block`` to ``new_type`` if it fits the block's wires (409 with the reasons).
+    """Change ``block`` to ``new_type`` if it fits the block's wires.
 
-    Parameters the new type does not declare are dropped and returned, so that the page can
-    say so and keep them; ``stash`` holds parameters dropped by earlier swaps of this block,
-    and those the new type declares come back (a swap there and back restores the block).
+    Parameters
+    ----------
+    doc : dict
+        The document (not changed).
+    block : str
+        The block to swap.
+    new_type : str
+        A registered block type.
+    stash : dict, optional
+        Parameters (name -> value text) dropped by earlier swaps of this block; those the
+        new type declares come back, so that a swap there and back restores the block.
+
+    Returns
+    -------
+    dict
+        ``doc``: the new document; ``dropped``: the parameters the new type does not
+        declare (name -> value text), for the page to name and keep; ``restored``: the
+        parameters taken back from ``stash``.
+
+    Raises
+    ------
+    RequestError
+        409 with every reason when the new type does not fit; 400 or 404 when the type or
+        the block is unknown.
     """
     spec = spec_from_doc(doc)
     if block not in spec.blocks:
@@ -487,8 +508,10 @@ def palette() -> dict[str, Any]:
         face = json.loads(json.dumps(cls.interface(), default=str))
         face["group"] = subsystem(name)
         face["per_chunk"] = cls.runs_per_chunk()
-        for p in [*face["inputs"], *face["outputs"]]:
-            p["type"]["text"] = describe(p["type"])
+        # The engine's own words for each type, whatever fields the type's JSON carries.
+        for side, ports in (("inputs", cls.inputs), ("outputs", cls.outputs)):
+            for p in face[side]:
+                p["type"]["text"] = ports[p["name"]].type.describe()
         faces.append(face)
     groups: dict[str, list[str]] = {}
     for face in faces:
@@ -511,12 +534,6 @@ def palette() -> dict[str, Any]:
             "node_pad": NODE_PAD,
         },
     }
-
-
-def describe(t: dict[str, Any]) -> str:
-    from ..graph_export import describe_type
-
-    return describe_type(t)
 
 
 def run_choices(doc: Any) -> dict[str, Any]:

@@ -47,7 +47,23 @@ _CSP = (
 
 
 class StudioServer(ThreadingHTTPServer):
-    """The studio for one folder of graphs; ``url`` is the address with the token."""
+    """The studio for one folder of graphs, on 127.0.0.1; ``url`` is the address with the token.
+
+    Parameters
+    ----------
+    folder : path
+        The served folder: graphs are read and written inside it only.
+    port : int
+        Port on 127.0.0.1; 0 takes any free one (``port`` says which).
+    graph : str, optional
+        A graph of the folder to open first (relative path).
+    runs_dir : path, optional
+        Where runs write their stores; default a temporary folder, removed by :meth:`close`.
+    token : str, optional
+        The session token; default a fresh random one.
+    quiet : bool
+        Do not log requests to stderr.
+    """
 
     daemon_threads = True
 
@@ -442,7 +458,24 @@ def serve(
     runs_dir: str | Path | None = None,
     open_browser: bool = False,
 ) -> int:
-    """Serve the studio until interrupted (``pasim studio``); return the exit code."""
+    """Serve the studio until interrupted or terminated (``pasim studio``).
+
+    Parameters
+    ----------
+    target : path, optional
+        A graph file (its folder is served and it opens first) or a folder; default ``.``.
+    port : int
+        Port on 127.0.0.1 (0: any free one).
+    runs_dir : path, optional
+        Keep the runs' stores here; by default they go to a temporary folder removed at exit.
+    open_browser : bool
+        Open the page in the default browser.
+
+    Returns
+    -------
+    int
+        The exit code: 0, or 2 when the target does not exist or the port is taken.
+    """
     target = Path(target or ".")
     if not target.exists():
         print(f"error: {target}: no such graph file or folder", file=sys.stderr)

@@ -23,6 +23,7 @@ import WireEdge from "./WireEdge.jsx";
 
 const nodeTypes = { block: BlockNode };
 const edgeTypes = { wire: WireEdge };
+const NO_PROBLEMS = [];
 const EMPTY_DOC = { format: "pasim-graph/1", variables: {}, blocks: {}, connections: [] };
 
 function clone(x) {
@@ -84,7 +85,9 @@ function Studio() {
     () => Object.fromEntries((palette?.blocks || []).map((b) => [b.type, b])),
     [palette],
   );
-  const problems = validation?.problems || [];
+  // One array per validation: a fresh [] on every render would re-run the canvas effects
+  // that depend on it, for ever.
+  const problems = useMemo(() => validation?.problems || NO_PROBLEMS, [validation]);
   const editable = Boolean(graph?.editable);
 
   const say = useCallback((kind, text, action) => setNotice({ kind, text, action }), []);
@@ -109,8 +112,10 @@ function Studio() {
         url.searchParams.set("graph", g.path);
         window.history.replaceState(null, "", url);
         setTimeout(() => rf.fitView({ padding: 0.08 }), 60);
+        return true;
       } catch (err) {
         say("error", err.message);
+        return false;
       }
     },
     [rf, say],
@@ -127,8 +132,9 @@ function Studio() {
         const root = document.documentElement.style;
         for (const [k, v] of Object.entries(p.geometry || {})) root.setProperty(`--${k.replaceAll("_", "-")}`, `${v}px`);
         const wanted = new URLSearchParams(window.location.search).get("graph") || s.first_graph || s.graphs[0];
-        if (wanted) await openGraph(wanted);
-        else setGraph({ path: "untitled.yaml", sha256: null, canonical: true, editable: true });
+        // A graph that cannot be opened leaves an empty, usable page (its error is shown).
+        if (!wanted || !(await openGraph(wanted)))
+          setGraph({ path: "untitled.yaml", sha256: null, canonical: true, editable: true });
       } catch (err) {
         say("error", err.message);
       }
