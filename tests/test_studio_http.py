@@ -344,6 +344,29 @@ def test_unknown_routes_methods_and_request_lines_answer_json(client, studio):
     assert reply.split("\r\n\r\n", 1)[1].startswith('{"error"')
 
 
+def test_a_kept_alive_connection_survives_refusals(studio, client):
+    # Refused requests leave their bodies read, so the next request on the connection parses.
+    doc = generic_doc(client)["doc"]
+    body = json.dumps({"path": "generic_radar.yaml", "doc": doc}).encode()
+    conn = http.client.HTTPConnection("127.0.0.1", studio.port, timeout=30)
+    host = {"Host": f"127.0.0.1:{studio.port}", "Content-Type": "application/json"}
+    auth = {**host, "Authorization": f"token {TOKEN}"}
+    steps = [
+        ("POST", "/api/validate", body, host, 403),
+        ("POST", "/api/validate", body, auth, 200),
+        ("POST", "/api/save", b"{not json", auth, 400),
+        ("POST", "/api/nothing", body, auth, 404),
+        ("POST", "/api/validate", body, {**auth, "Origin": "http://evil.example"}, 403),
+        ("GET", "/api/session", None, auth, 200),
+    ]
+    for method, path, data, headers, status in steps:
+        conn.request(method, path, body=data, headers=headers)
+        res = conn.getresponse()
+        assert res.status == status, (method, path, res.read())
+        assert "error" in json.loads(res.read()) or status == 200
+    conn.close()
+
+
 def test_an_internal_error_is_json_without_a_traceback(client, monkeypatch):
     from pasim_graph.studio import documents
 

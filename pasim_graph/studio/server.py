@@ -225,6 +225,8 @@ class Handler(BaseHTTPRequestHandler):
     # -- routing ----------------------------------------------------------------------------
 
     def _handle(self, method: str) -> None:
+        # One handler serves every request of a kept-alive connection.
+        self._body_read = False
         try:
             self._check_origin()
             url = urlsplit(self.path)
@@ -249,7 +251,7 @@ class Handler(BaseHTTPRequestHandler):
 
     def _drain(self) -> None:
         """Read an unread body so that the connection stays usable for the next request."""
-        if self.command == "POST" and not getattr(self, "_body_read", False):
+        if self.command == "POST" and not self._body_read:
             length = self.headers.get("Content-Length", "")
             if length.isdigit() and int(length) <= MAX_BODY:
                 self.rfile.read(int(length))
