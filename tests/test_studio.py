@@ -200,6 +200,24 @@ def test_palette_lists_every_registered_type_by_subsystem():
                 assert p["type"]["kind"] in palette["kind_colors"]
 
 
+def test_palette_says_which_inputs_each_output_feeds():
+    feeds = docs.palette()["feeds"]
+    pulse = feeds["waveform.rectangular:pulse"]
+    assert {"amplifier.saleh:pulse_in", "filter.matched:pulse", "filter.matched:reference"} <= set(
+        pulse
+    )
+    assert "antenna.pencil:beams" not in pulse
+    # The engine's rule, pair by pair (schemas included).
+    blocks = registry.all_blocks()
+    for key, targets in feeds.items():
+        name, port = key.split(":")
+        out = blocks[name].outputs[port].type
+        for other, cls in blocks.items():
+            for inp in cls.inputs.values():
+                fits = not out.mismatch(inp.type)
+                assert (f"{other}:{inp.name}" in targets) == fits
+
+
 @pytest.fixture(scope="module")
 def plugin_path(tmp_path_factory):
     """The example plugin of tests/plugin_pkg, installed into a folder of its own."""

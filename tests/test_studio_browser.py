@@ -192,6 +192,12 @@ def test_out_of_range_parameter_shows_the_engines_message(page, folder):
     head = page.inner_text("[data-testid=param-input_backoff_db]")
     assert "dB" in head and "float in [0, 60]" in head
     assert "drive peak below the saturating input" in head
+    # Ports with their types; a Dataset port with the variables its schema declares.
+    port = page.inner_text("[data-testid=port-in-pulse_in]")
+    assert "pulse[dataset; (sample); sqrt(W)]" in port
+    schema = registry.get("amplifier.saleh").inputs["pulse_in"].type.schema
+    summary = page.inner_text("[data-testid=port-in-pulse_in] .schema summary")
+    assert summary.startswith(f"Dataset: {len(schema.variables)} variables")
 
 
 def test_save_writes_exactly_the_change_and_layout_goes_aside(page, folder):
@@ -255,7 +261,13 @@ def test_add_delete_and_rewire_through_the_engine(page, folder):
     dst = page.locator("[data-testid=block-mf] [data-testid=handle-in-reference]").bounding_box()
     page.mouse.move(src["x"] + src["width"] / 2, src["y"] + src["height"] / 2)
     page.mouse.down()
-    page.mouse.move(dst["x"] + dst["width"] / 2, dst["y"] + dst["height"] / 2, steps=15)
+    page.mouse.move(dst["x"] - 40, dst["y"] - 40, steps=10)
+    # While dragging, the inputs a pulse can feed are marked, the others dimmed.
+    reference = page.locator("[data-testid=block-mf] [data-testid=handle-in-reference]")
+    beams = page.locator("[data-testid=block-antenna] [data-testid=handle-in-beams]")
+    assert "hint-fits" in reference.get_attribute("class")
+    assert "hint-no" in beams.get_attribute("class")
+    page.mouse.move(dst["x"] + dst["width"] / 2, dst["y"] + dst["height"] / 2, steps=5)
     page.mouse.up()
     page.wait_for_selector(f"[data-testid='rf__edge-{wire}']")
     assert page.inner_text("[data-testid=status]") == "valid"

@@ -473,6 +473,24 @@ def test_a_cycle_is_reported(client):
     assert problem["message"] in ("cycle: a -> b -> a", "cycle: b -> a -> b")
 
 
+def test_a_graph_that_is_not_utf8_opens_read_only(folder, client):
+    (folder / "latin1.yaml").write_bytes(b"format: pasim-graph/1\n# caf\xe9\nblocks: {}\n")
+    status, g = client.get("/api/graph?path=latin1.yaml")
+    assert status == 200 and g["editable"] is False
+    (problem,) = g["validation"]["problems"]
+    assert problem["file"] == "latin1.yaml" and problem["line"] == 2
+    assert problem["message"].startswith("not UTF-8 text: byte 0xe9")
+
+
+def test_run_sectors_follow_the_command_lines_rule(client):
+    doc = generic_doc(client)["doc"]
+    status, res = client.post(
+        "/api/runs", {"path": "generic_radar.yaml", "doc": doc, "sector": "10:10"}
+    )
+    assert status == 400
+    assert "the sector starts and stops at 10 deg and holds no beam" in res["error"]
+
+
 def test_a_file_the_format_cannot_read_opens_read_only(client):
     status, g = client.get("/api/graph?path=broken/garbage.yaml")
     assert status == 200

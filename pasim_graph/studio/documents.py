@@ -16,6 +16,7 @@ The page never interprets a value; the engine parses and checks it exactly as it
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import hashlib
 import json
@@ -299,6 +300,15 @@ def check(doc: Any, file: str, disk: str | None = None) -> dict[str, Any]:
     return {"valid": not problems, "problems": problems, "text": text}
 
 
+def read_text(path: Path) -> str:
+    """A file's text as the graph reader sees it; bytes that are not UTF-8 show as U+FFFD.
+
+    Such a file opens read-only (the reader names the first bad byte), so the replacement
+    characters only ever reach a diff, never a file.
+    """
+    return path.read_bytes().decode("utf-8", errors="replace") if path.is_file() else ""
+
+
 def diff(old: str, new: str, path: str) -> str:
     lines = difflib.unified_diff(
         old.splitlines(keepends=True), new.splitlines(keepends=True), f"a/{path}", f"b/{path}"
@@ -309,13 +319,15 @@ def diff(old: str, new: str, path: str) -> str:
 def open_graph(folder: Folder, rel: str) -> dict[str, Any]:
     """Everything the page needs to show one graph file."""
     path = folder.resolve(rel)
-    text = path.read_text()
+    text = read_text(path)
     spec = read(path)
     spec.file = rel
+    # The reader names the file by the path it was given; the page names it relatively.
+    spec.problems = [dataclasses.replace(p, file=rel) for p in spec.problems]
     doc = doc_from_spec(spec)
-    # A file the format cannot read fully (malformed YAML, a bad block entry) would lose the
-    # unreadable parts on save: it opens read-only, with the reader's own messages.
-    unreadable = [p.to_json() | {"text": str(p)} for p in parse(text, rel).problems]
+    # A file the format cannot read fully (not UTF-8, malformed YAML, a bad block entry) would
+    # lose the unreadable parts on save: it opens read-only, with the reader's own messages.
+    unreadable = [p.to_json() | {"text": str(p)} for p in spec.problems]
     result = check(doc, rel, text) if not unreadable else {"valid": False, "problems": unreadable}
     return {
         "path": rel,
@@ -516,6 +528,17 @@ def palette() -> dict[str, Any]:
     groups: dict[str, list[str]] = {}
     for face in faces:
         groups.setdefault(face["group"], []).append(face["type"])
+    # Which inputs each output can feed, by the engine's rule (PortType.mismatch, schemas
+    # included): the page marks them while a wire is being drawn.
+    feeds: dict[str, list[str]] = {}
+    for name, cls in blocks.items():
+        for out in cls.outputs.values():
+            feeds[f"{name}:{out.name}"] = [
+                f"{other}:{inp.name}"
+                for other, ocls in blocks.items()
+                for inp in ocls.inputs.values()
+                if not out.type.mismatch(inp.type)
+            ]
     broken = [
         {"type": n, "error": registry.load_error(n) or "failed to load"}
         for n in registry.names()
@@ -525,6 +548,7 @@ def palette() -> dict[str, Any]:
         "blocks": faces,
         "groups": [{"name": g, "types": t} for g, t in sorted(groups.items())],
         "broken": broken,
+        "feeds": feeds,
         "kind_colors": kind_colors(),
         # The block geometry the automatic layout assumes; the page draws blocks with it.
         "geometry": {
@@ -620,7 +644,7 @@ def save(
         raise RequestError(400, "'overwrite' must be true or false")
     if base_sha256 is not None and not isinstance(base_sha256, str):
         raise RequestError(400, "'base_sha256' must be text")
-    old = path.read_text() if path.exists() else ""
+    old = read_text(path)
     if path.exists() and not overwrite:
         if base_sha256 is None:
             raise RequestError(409, f"{rel} exists; save over it only with 'overwrite'")

@@ -24,9 +24,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .documents import Folder, RequestError, canonical, diff, run_choices
+from ..cli import parse_sector
+from .documents import Folder, RequestError, canonical, diff, read_text, run_choices
 
-_SECTOR = re.compile(r"^\s*(\d+(?:\.\d*)?)\s*:\s*(\d+(?:\.\d*)?)\s*$")
 #: Beams per chunk of a studio run: small, so that progress moves in visible steps (the
 #: numbers do not depend on the chunking).
 CHUNK_BEAMS = 4
@@ -120,13 +120,12 @@ class Runs:
         if not isinstance(sector, str):
             raise RequestError(400, "'sector' must be text such as 280:290")
         if sector.strip():
-            m = _SECTOR.match(sector)
-            if not m:
-                raise RequestError(
-                    400, f"sector {sector!r}: expected AZ0:AZ1 in degrees, such as 280:290"
-                )
-            options["sector"] = f"{m[1]}:{m[2]}"
-            args += ["--sector", options["sector"]]
+            _, problem = parse_sector(sector.strip())  # the command line's own rule and words
+            if problem:
+                raise RequestError(400, f"sector {sector!r}: {problem}")
+            options["sector"] = sector.strip()
+            # One argument: a sector such as -10:10 must not read as an option.
+            args.append(f"--sector={options['sector']}")
         truth = body.get("truth") or ""
         if truth:
             args += ["--truth", str(self.folder.truth_path(truth))]
@@ -210,10 +209,10 @@ class Runs:
         from ..graphfile import _flow, parse
 
         try:
-            path = self.folder.resolve(rel)
+            disk = read_text(self.folder.resolve(rel))
         except RequestError:
             return "unsaved edits"
-        old, new = parse(path.read_text()), parse(text)
+        old, new = parse(disk), parse(text)
         out = []
         for name in sorted(set(old.blocks) | set(new.blocks)):
             a, b = old.blocks.get(name), new.blocks.get(name)

@@ -359,8 +359,7 @@ class Handler(BaseHTTPRequestHandler):
     def post_validate(self, body: dict[str, Any]) -> dict[str, Any]:
         rel = self._path_of(body)
         try:
-            path = self.server.folder.resolve(rel, must_exist=False)
-            old = path.read_text() if path.is_file() else ""
+            old = docs.read_text(self.server.folder.resolve(rel, must_exist=False))
         except RequestError:
             old = ""
         result = docs.check(body.get("doc"), rel, old)

@@ -571,6 +571,11 @@ function Studio() {
       .catch((err) => say("error", err.message));
   }, [compare, say]);
 
+  const studioContext = useMemo(
+    () => ({ colors: palette?.kind_colors || {}, feeds: palette?.feeds || {} }),
+    [palette],
+  );
+
   // The canvas changes size when the dock opens or closes: keep the whole graph in view.
   useEffect(() => {
     const timer = setTimeout(() => rf.fitView({ padding: 0.08 }), 80);
@@ -589,7 +594,7 @@ function Studio() {
   const running = runs.some((r) => r.state === "running" || r.state === "starting");
 
   return (
-    <StudioContext.Provider value={{ colors: palette.kind_colors }}>
+    <StudioContext.Provider value={studioContext}>
       <div className={`app${dockOpen ? " dock-open" : ""}`}>
         <header className="topbar">
           <div className="brand">PASIM-graph studio</div>

@@ -4,7 +4,7 @@
 import { Handle, Position, useConnection } from "@xyflow/react";
 import { memo, useContext } from "react";
 import { StudioContext } from "./context.js";
-import { sameType, typeText } from "./api.js";
+import { typeText } from "./api.js";
 
 function PortHandle({ side, port, color, hollow, hint }) {
   const isInput = side === "in";
@@ -22,19 +22,20 @@ function PortHandle({ side, port, color, hollow, hint }) {
 }
 
 function BlockNode({ id, data, selected }) {
-  const { colors } = useContext(StudioContext);
+  const { colors, feeds } = useContext(StudioContext);
   const connection = useConnection();
   const { type, known, inputs, outputs, wiredInputs, problems } = data;
   const rows = Math.max(inputs.length, outputs.length, 1);
 
-  // While a wire is being drawn from an output, mark the inputs whose type matches it.
-  let fromType = null;
-  if (connection.inProgress && connection.fromHandle?.type === "source") {
-    fromType = connection.fromNode?.data?.outputs?.find((p) => p.name === connection.fromHandle.id)?.type;
+  // While a wire is being drawn from an output, mark the inputs it can feed: the server's
+  // list, computed with the engine's own rule (PortType.mismatch, schemas included).
+  let fits = null;
+  if (connection.inProgress && connection.fromHandle?.type === "source" && connection.fromNode?.id !== id) {
+    fits = feeds[`${connection.fromNode?.data?.type}:${connection.fromHandle.id}`] || [];
   }
   const hint = (port) => {
-    if (!fromType || connection.fromNode?.id === id) return null;
-    return sameType(fromType, port.type) ? "fits" : "no";
+    if (!fits) return null;
+    return fits.includes(`${type}:${port.name}`) ? "fits" : "no";
   };
 
   const cells = [];

@@ -69,26 +69,41 @@ function defaultText(p) {
   return `default ${typeof p.default === "string" ? p.default || "''" : String(p.default)}`;
 }
 
+function entries(items) {
+  if (!items || typeof items !== "object") return [];
+  return Array.isArray(items) ? items.map((v) => [v.name, v]) : Object.entries(items);
+}
+
 function Schema({ schema }) {
-  // Dataset schemas on ports, when the engine declares them: shown generically.
+  // The Dataset a port carries, as the engine declares it (variables, then attributes).
   if (!schema) return null;
-  const vars = schema.variables;
-  if (vars && typeof vars === "object") {
-    const rows = Array.isArray(vars) ? vars.map((v) => [v.name, v]) : Object.entries(vars);
-    return (
-      <ul className="schema">
-        {rows.map(([name, v]) => (
-          <li key={name}>
+  const vars = entries(schema.variables);
+  const attrs = entries(schema.attrs);
+  if (!vars.length && !attrs.length) return <pre className="schema">{JSON.stringify(schema, null, 1)}</pre>;
+  return (
+    <details className="schema">
+      <summary>
+        Dataset: {vars.length} variables{attrs.length ? `, ${attrs.length} attributes` : ""}
+      </summary>
+      <ul>
+        {vars.map(([name, v]) => (
+          <li key={name} title={v?.doc || ""}>
             <code>{name}</code>{" "}
             {typeof v === "object" && v !== null
               ? [v.dtype, v.dims && `(${[].concat(v.dims).join(", ")})`, v.units].filter(Boolean).join(" ")
               : String(v)}
+            {v?.required === false && <span className="muted"> optional</span>}
+          </li>
+        ))}
+        {attrs.map(([name, a]) => (
+          <li key={`@${name}`} title={a?.doc || ""}>
+            <code>@{name}</code> {a?.type}
+            {a?.required === false && <span className="muted"> optional</span>}
           </li>
         ))}
       </ul>
-    );
-  }
-  return <pre className="schema">{JSON.stringify(schema, null, 1)}</pre>;
+    </details>
+  );
 }
 
 function Ports({ title, ports, side, wires, colors }) {

@@ -54,19 +54,3 @@ export function typeText(t) {
   if (!t) return "unknown type";
   return t.text || `${t.kind}[${t.dtype}; (${(t.dims || []).join(", ")}); ${t.units}]`;
 }
-
-// A port type as comparable text: every field the interface JSON gives (kind, dtype, dims,
-// units and whatever later versions add), keys sorted. Only a hint while dragging a wire:
-// the engine decides, and its message is what the page shows.
-function canonicalJson(value) {
-  if (Array.isArray(value)) return `[${value.map(canonicalJson).join(",")}]`;
-  if (value && typeof value === "object") {
-    const keys = Object.keys(value).filter((k) => k !== "text").sort();
-    return `{${keys.map((k) => `${JSON.stringify(k)}:${canonicalJson(value[k])}`).join(",")}}`;
-  }
-  return JSON.stringify(value);
-}
-
-export function sameType(a, b) {
-  return Boolean(a && b) && canonicalJson(a) === canonicalJson(b);
-}
