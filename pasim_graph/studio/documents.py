@@ -31,6 +31,7 @@ from .. import registry
 from ..block import Block
 from ..graph import GraphError, validate
 from ..graphfile import (
+    _NAME,
     FORMAT,
     BlockSpec,
     ConnectionSpec,
@@ -47,8 +48,8 @@ GRAPH_SUFFIXES = (".yaml", ".yml")
 LAYOUT_SUFFIX = ".layout.json"
 LAYOUT_FORMAT = "pasim-layout/1"
 
-# The graph file's own rules (graphfile._NAME and its connection pattern).
-_BLOCK_NAME = re.compile(r"^[A-Za-z_][\w-]*$")
+# The graph file's own rules: its block names, and the port names its connections can hold.
+_BLOCK_NAME = _NAME
 _PORT_NAME = re.compile(r"^\w+$")
 _MAX_TEXT = 10_000
 _MAX_BLOCKS = 1_000
