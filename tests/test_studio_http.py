@@ -25,6 +25,7 @@ from pasim_graph.studio.server import StudioServer
 from .conftest import FIXTURES, GRAPHS, ROOT, run_cli
 
 TOKEN = "test-token-0123456789"
+GENERIC_YAML = "generic_radar.yaml"
 
 
 class Client:
@@ -518,6 +519,27 @@ def test_a_broken_graph_run_fails_with_the_engine_report(client):
         run = client.get(f"/api/runs/{run['id']}")[1]
     assert run["state"] == "failed"
     assert "parameter 'input_backoff_db': expected <= 60.0 dB, found 99" in run["error"]
+
+
+def test_a_kept_runs_folder_is_never_overwritten(folder, tmp_path):
+    runs = tmp_path / "kept"
+    (runs / "run1").mkdir(parents=True)
+    (runs / "run1" / "graph.yaml").write_text("an earlier session's run\n")
+    server = StudioServer(folder, 0, token=TOKEN, runs_dir=runs)
+    server.serve_in_thread()
+    try:
+        c = Client(server.port)
+        doc = generic_doc(c)["doc"]
+        doc["blocks"]["hpa"]["params"]["input_backoff_db"] = "99"  # fails fast, in validation
+        status, run = c.post("/api/runs", {"path": GENERIC_YAML, "doc": doc})
+        assert status == 200 and run["id"] == "2"
+        assert (runs / "run1" / "graph.yaml").read_text() == "an earlier session's run\n"
+        while run["state"] not in ("done", "failed"):
+            time.sleep(0.2)
+            run = c.get(f"/api/runs/{run['id']}")[1]
+    finally:
+        server.close()
+    assert (runs / "run2" / "graph.yaml").exists()  # kept: the folder was given
 
 
 def test_the_command_line_serves_loopback_with_a_token(tmp_path):

@@ -154,9 +154,12 @@ class Runs:
                 raise RequestError(
                     409, f"run {busy[0].id} is still going; wait for it or cancel it first"
                 )
+            # A kept runs folder (--runs DIR) may hold the runs of an earlier session.
             run_id = str(next(self._ids))
+            while (self.dir / f"run{run_id}").exists():
+                run_id = str(next(self._ids))
             folder = self.dir / f"run{run_id}"
-            folder.mkdir(parents=True, exist_ok=False)
+            folder.mkdir(parents=True)
             graph_file = folder / "graph.yaml"
             graph_file.write_text(text)
             command = [
