@@ -1,4 +1,4 @@
-// Build: `npm ci && npm run build` in this folder writes the page into the Python package
+// Build: `npm install && npm run build` in this folder writes the page into the Python package
 // (pasim_graph/studio/static), with fixed file names (the server adds the session token to
 // them) and the licences of everything bundled.
 import path from "node:path";
