@@ -86,15 +86,36 @@ def page(browser, studio):
     page.on("pageerror", lambda e: errors.append(str(e)))
     page.goto(f"http://127.0.0.1:{studio.port}/?token={TOKEN}&graph={GENERIC}")
     page.wait_for_selector("[data-testid=block-hpa]")
+    settle(page)
     yield page
     page.close()
     assert not errors, errors  # no uncaught exception in the page
 
 
+def settle(page):
+    """Wait until the canvas stops moving (the page fits the graph into view after loading):
+    a click aimed at a block while it moves lands beside it."""
+    page.wait_for_function(
+        """() => {
+            const v = document.querySelector('.react-flow__viewport');
+            const t = v ? v.style.transform : null;
+            const still = t !== null && t === window.__studioTestTransform;
+            window.__studioTestTransform = t;
+            return still;
+        }""",
+        polling=300,
+    )
+
+
 def select_block(page, name):
     page.click(f"[data-testid=block-{name}] .block-name")
     page.wait_for_selector(f"[data-testid=block-name][value={name}]")
-    page.wait_for_selector("[data-testid=swap-select] option >> nth=1", state="attached")
+    try:
+        page.wait_for_selector("[data-testid=swap-select] option >> nth=1", state="attached")
+    except sync_api.TimeoutError:
+        notice = page.locator("[data-testid=notice]")
+        said = notice.inner_text() if notice.count() else "no notice"
+        raise AssertionError(f"the types for '{name}' never came ({said})") from None
 
 
 def swap(page, block, to):
