@@ -11,6 +11,7 @@ import xarray as xr
 from pasim_graph import Block, Chunk, Input, Output, Param
 
 from .angles import circular_difference
+from .fasttime import GateSum, RangeModel, range_correlate, range_model
 from .signals import (
     BEAMS,
     CALIBRATION,
@@ -37,26 +38,6 @@ JITTER = 1e-6
 
 #: Fidelity levels of the weather channel, fastest first.
 METHODS = ("expected", "combined", "covariance", "monte_carlo")
-
-
-def range_weights(response: xr.Dataset, gate_width_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """Integrate the range weighting |y|^2 over whole gates at offsets k = -K..K.
-
-    Returns the gate offsets k and the integrals (metres).
-    """
-    x = response["offset_m"].values
-    w = response["power_weight"].values
-    dx = np.diff(x).mean() if x.size > 1 else gate_width_m
-    # Cumulative integral with each sample standing for the interval around it.
-    edges = np.concatenate([x - dx / 2, [x[-1] + dx / 2]])
-    cum = np.concatenate([[0.0], np.cumsum(w * dx)])
-    k_max = int(np.ceil(max(abs(x[0]), abs(x[-1])) / gate_width_m + 0.5))
-    k = np.arange(-k_max, k_max + 1)
-    lo = np.interp((k - 0.5) * gate_width_m, edges, cum)
-    hi = np.interp((k + 0.5) * gate_width_m, edges, cum)
-    r = hi - lo
-    keep = r > r.max() * 1e-12
-    return k[keep], r[keep]
 
 
 def azimuth_profile(power: np.ndarray, d_el_deg: np.ndarray, elevation_deg: float) -> np.ndarray:
@@ -227,16 +208,21 @@ def embedded_spectra(
 class CellModel:
     """Unit-power H and V slow-time series of truth cells, by one of the paper's two methods.
 
-    ``draw(rows, gates, gen_h, gen_v, need_v)`` returns (h, v), each cell x pulse, with
-    E|h|^2 = 1 and E|v|^2 = 1 (powers and pattern weights are applied by the caller); H is
-    drawn from ``gen_h`` only, so it is the same whether or not V is asked for:
+    ``draw(rows, gates, gen_h, gen_v, need_v, basis)`` returns H and V as lists of terms
+    (series, factor per cell), the channel being Σ factor x series; each series is cell x
+    component x pulse: the cell's ``r`` independent range components (``basis``, r x n_fine:
+    how each is made of the cell's sub-gate scatterers, see :mod:`pasim_blocks.fasttime`), with
+    E|h|^2 = 1 and E|v|^2 = 1 (powers, pattern and range weights are applied by the caller).
+    H is drawn from ``gen_h`` only, so it is the same whether or not V is asked for:
 
     - ``covariance`` (eq. 13-18): V1, V2 coloured with the Cholesky factor of the Gaussian
-      autocorrelation, h = V1, v = [rho V1 + sqrt(1 - rho^2) V2] exp(j phi_DP).
+      autocorrelation, h = V1, v = [rho V1 + sqrt(1 - rho^2) V2] exp(j phi_DP), per component
+      (a unitary rotation of independent sub-gate scatterers leaves them independent).
     - ``monte_carlo`` (eq. 5-12): ``drops`` equal drops per cell at random positions (uniform
-      phase), each with its own radial velocity drawn from N(mean velocity, width^2) and
-      moved every PRT; random backscatter phases with sigma_h = sigma_v = sigma / sqrt(2),
-      sigma = sqrt(-2 ln rho_hv), give rho_hv = exp(-sigma^2 / 2).
+      phase, and a uniform place among the cell's sub-gate scatterers, which sets what each
+      range component receives from it), each with its own radial velocity drawn from N(mean
+      velocity, width^2) and moved every PRT; random backscatter phases with sigma_h = sigma_v
+      = sigma / sqrt(2), sigma = sqrt(-2 ln rho_hv), give rho_hv = exp(-sigma^2 / 2).
     """
 
     def __init__(
@@ -269,27 +255,39 @@ class CellModel:
         gates: np.ndarray,
         gen_h: np.random.Generator,
         gen_v: np.random.Generator,
-        need_v: bool = True,
-    ) -> tuple[np.ndarray, np.ndarray | None]:
+        need_v: bool,
+        basis: np.ndarray,
+    ) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[tuple[np.ndarray, np.ndarray]]]:
+        """The H and V series as (series, factor per cell) terms: h = Σ factor x series."""
         if self.method == "monte_carlo":
-            return self._drops(rows, gates, gen_h, gen_v, need_v)
-        m = np.arange(self.pulses)[None, :]
-        doppler = np.exp(
-            (-4j * np.pi * self.prt_s / self.wavelength_m)
-            * (self.field["VRADH"][rows, gates][:, None] * m)
-        ).astype(self.cdtype)
-        codes = self.factors.code[rows, gates]
+            return self._drops(rows, gates, gen_h, gen_v, need_v, basis)
+        n, r, pulses = rows.size, basis.shape[0], self.pulses
+        m = np.arange(pulses)[None, :]
         # sqrt(1/2): the white sequences have unit variance per real component.
-        half = self.dtype(np.sqrt(0.5))
-        y1 = self.factors.colour(codes, gen_h)
-        x1 = (y1[:, 0] + 1j * y1[:, 1]) * doppler * half
+        doppler = (
+            np.exp(
+                (-4j * np.pi * self.prt_s / self.wavelength_m)
+                * (self.field["VRADH"][rows, gates][:, None] * m)
+            )
+            * np.sqrt(0.5)
+        ).astype(self.cdtype)[:, None, :]
+        codes = np.repeat(self.factors.code[rows, gates], r)
+        x1 = self._complex(self.factors.colour(codes, gen_h), n, r) * doppler
+        ones = np.ones(n, self.cdtype)
         if not need_v:
-            return x1, None
-        y2 = self.factors.colour(codes, gen_v)
-        x2 = (y2[:, 0] + 1j * y2[:, 1]) * doppler * half
-        r = self.rho[rows, gates][:, None].astype(self.dtype)
-        v = (r * x1 + np.sqrt(1 - r**2) * x2) * self.phase_dp[rows, gates][:, None]
-        return x1, v.astype(self.cdtype)
+            return [(x1, ones)], []
+        x2 = self._complex(self.factors.colour(codes, gen_v), n, r) * doppler
+        rho = self.rho[rows, gates]
+        phase = self.phase_dp[rows, gates]
+        # v = [rho x1 + sqrt(1 - rho^2) x2] exp(j phi_DP), as factors on x1 and x2.
+        return [(x1, ones)], [(x1, rho * phase), (x2, np.sqrt(1 - rho**2) * phase)]
+
+    def _complex(self, pairs: np.ndarray, n: int, r: int) -> np.ndarray:
+        """Rows (real, imaginary) of coloured sequences as complex series: cell x comp x pulse."""
+        out = np.empty((n * r, self.pulses), self.cdtype)
+        out.real = pairs[:, 0]
+        out.imag = pairs[:, 1]
+        return out.reshape(n, r, self.pulses)
 
     def _drops(
         self,
@@ -298,14 +296,19 @@ class CellModel:
         gen_h: np.random.Generator,
         gen_v: np.random.Generator,
         need_v: bool,
-    ) -> tuple[np.ndarray, np.ndarray | None]:
+        basis: np.ndarray,
+    ) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[tuple[np.ndarray, np.ndarray]]]:
         n, d, pulses = rows.size, self.drops, self.pulses
-        h = np.empty((n, pulses), self.cdtype)
-        v = np.empty((n, pulses), self.cdtype) if need_v else None
+        r, n_fine = basis.shape
+        h = np.empty((n, r, pulses), self.cdtype)
+        v = np.empty((n, r, pulses), self.cdtype) if need_v else None
         k = -4 * np.pi / self.wavelength_m
         m = np.arange(pulses)
+        # sqrt(n_fine) basis[:, s]: a drop at sub-gate place s gives each component unit power
+        # on average over places (the basis rows have unit norm).
+        weight = (basis * np.sqrt(n_fine)).astype(self.cdtype)
         # Cells in batches, so the drops x pulses phasors of a batch stay small in memory.
-        batch = max(1, 2_000_000 // (d * pulses))
+        batch = max(1, 2_000_000 // (d * max(pulses, r)))
         for a in range(0, n, batch):
             b = min(n, a + batch)
             rr, gg = rows[a:b], gates[a:b]
@@ -313,36 +316,44 @@ class CellModel:
             width = np.clip(self.field["WRADH"][rr, gg], 0, None)[:, None]
             velocity = mean + width * gen_h.standard_normal((b - a, d))
             position = gen_h.uniform(0.0, 2 * np.pi, (b - a, d))
+            place = gen_h.integers(0, n_fine, (b - a, d))
             sigma = np.sqrt(-2 * np.log(np.clip(self.rho[rr, gg], 1e-12, 1.0)) / 2)[:, None]
             phi_h = sigma * gen_h.standard_normal((b - a, d))
             # Phase of each drop at each pulse: it moves velocity * PRT every pulse.
-            track = np.exp(1j * (position[..., None] + k * velocity[..., None] * (m * self.prt_s)))
+            track = np.exp(
+                1j * (position[..., None] + k * velocity[..., None] * (m * self.prt_s))
+            ).astype(self.cdtype)
             scale = 1 / np.sqrt(d)
-            h[a:b] = scale * np.einsum("cd,cdm->cm", np.exp(1j * phi_h), track)
+            # cell x component x drop: what each drop puts on each range component.
+            share = weight[:, place].transpose(1, 0, 2)
+            h[a:b] = scale * ((share * np.exp(1j * phi_h)[:, None, :]) @ track)
             if v is not None:
                 phi_v = sigma * gen_v.standard_normal((b - a, d))
                 v[a:b] = (
                     scale
-                    * np.einsum("cd,cdm->cm", np.exp(1j * phi_v), track)
-                    * self.phase_dp[rr, gg][:, None]
+                    * ((share * np.exp(1j * phi_v)[:, None, :]) @ track)
+                    * self.phase_dp[rr, gg][:, None, None]
                 )
-        return h, v
+        ones = np.ones(n, self.cdtype)
+        return [(h, ones)], ([(v, ones)] if v is not None else [])
 
 
 class TruthCells:
     """What the weather channel needs of the truth, prepared once per run and shared by beams.
 
     Powers per cell (W per sr m, before pattern and range weighting), moments with fill values,
-    the per-cell lag-1 correlation and H-V cross term for the expected correlations, and the
-    per-cell time-series model of the chosen level. Fields are padded in range with the edge
-    gates (the weather is taken to go on), so the first and last gates see neighbours like
-    every other gate.
+    each cell's velocity normalised for the range model's Doppler terms (``u``), the per-cell
+    lag-1 correlation and H-V cross term for the expected correlations, and the per-cell
+    time-series model of the chosen level. Fields are padded in range by the range model's
+    reach with the edge gates' moments (the weather is taken to go on), at their own ranges,
+    so the first and last gates see neighbours like every other gate; padding at or before
+    zero range holds no echo.
     """
 
     def __init__(
         self,
         truth: xr.Dataset,
-        pad: int,
+        ranges: RangeModel,
         k0: float,
         prt_s: float,
         wavelength_m: float,
@@ -351,14 +362,19 @@ class TruthCells:
         drops: int,
         dtype: type,
     ):
+        pad = ranges.pad
+
         def padded(a: np.ndarray) -> np.ndarray:
             return np.pad(a, ((0, 0), (pad, pad)), mode="edge")
 
         rng_m = truth["range"].values
-        r2 = padded(np.broadcast_to(rng_m**2, truth["DBZH"].shape))
+        step = float(truth.attrs["gate_width_m"])
+        outside = step * np.arange(1, pad + 1)
+        rng_p = np.concatenate([rng_m[0] - outside[::-1], rng_m, rng_m[-1] + outside])
+        r2 = np.broadcast_to(rng_p**2, (truth.sizes["radial"], rng_p.size))
         dbz = padded(truth["DBZH"].values)
         # A gate at zero range (some legacy files start there) holds no echo volume.
-        self.echo = np.isfinite(dbz) & (r2 > 0)
+        self.echo = np.isfinite(dbz) & (rng_p > 0)[None, :]
         self.s_h = np.where(
             self.echo,
             k0 * 10 ** (np.nan_to_num(dbz, nan=-999.0) / 10) / np.where(self.echo, r2, 1.0),
@@ -381,6 +397,7 @@ class TruthCells:
         self.cross[e] = (
             np.sqrt(self.s_h[e] * self.s_v[e]) * rho[e] * _phasor(np.deg2rad(field["PHIDP"][e]))
         )
+        self.u = ranges.normalised_velocity(field["VRADH"])
         self.pulses = pulses
         self.dtype = dtype
         # The per-cell draws of every level but `expected`: all echo cells for covariance and
@@ -452,28 +469,16 @@ class TruthCells:
 
 class BeamDraw(NamedTuple):
     """What every drawing path needs for one beam: the truth cells, the radials near the beam
-    and their two-way weights, the range weighting, the beam's H and V random streams, and
-    whether V is wanted."""
+    and their two-way weights, the range model, the beam's H and V random streams, and whether
+    V is wanted."""
 
     cells: TruthCells
     near: np.ndarray
     omega: np.ndarray
-    k_off: np.ndarray
-    r_k: np.ndarray
-    pad: int
+    ranges: RangeModel
     gen_h: np.random.Generator
     gen_v: np.random.Generator
     need_v: bool
-
-
-def range_sum(a: np.ndarray, k_off: np.ndarray, weights: np.ndarray, pad: int, n_g: int) -> Any:
-    """sum_k weights[k] * a[pad + k : pad + k + n_g] along the first axis (the range weighting)."""
-    # Weights in the array's own precision, so float32 work is not promoted to float64.
-    w = np.asarray(weights).astype(np.real(a[:0]).dtype)
-    out = w[0] * a[pad + k_off[0] : pad + k_off[0] + n_g]
-    for k, wk in zip(k_off[1:], w[1:], strict=True):
-        out += wk * a[pad + k : pad + k + n_g]
-    return out
 
 
 class WeatherChannel(Block):
@@ -483,32 +488,41 @@ class WeatherChannel(Block):
     ensemble with a Gaussian Doppler spectrum (mean velocity, spectrum width), and H and V
     returns S_hh = V1, S_vv = [rho V1 + sqrt(1 - rho^2) V2] exp(j phi_DP) / sqrt(Z_dr). Each
     cell is weighted by the two-way H or V pattern integrated over its azimuth extent and all
-    elevations (the truth is one sweep, taken as uniform in elevation), and each gate sums the
-    cells around it with the waveform's range weighting. Powers come from the radar equation,
+    elevations (the truth is one sweep, taken as uniform in elevation). In range, a cell is a
+    continuum of sub-gate scatterers seen through the radiated pulse (with its Doppler phase
+    along the pulse) and the receive filter, at every gate the range response reaches, range
+    sidelobes included (:mod:`pasim_blocks.fasttime`). Powers come from the radar equation,
     so a uniform field of Z dBZ gives back Z through the calibration output. The levels
     (``method``), fastest first:
 
     - ``expected``: no random draw. The echo's expected correlations (lag 0 and 1 of H and V,
-      lag-0 H-V) through the beam and range weighting; the I/Q cube has no pulses and the
-      pulse-pair processor estimates from ``echo_correlations``: the smoothing error alone.
+      lag-0 H-V) through the beam and the range response's power (at each cell's velocity);
+      the I/Q cube has no pulses and the pulse-pair processor estimates from
+      ``echo_correlations``: the smoothing error alone.
     - ``combined``: each gate's series drawn at once from the pattern- and range-weighted sum
-      of its cells' spectra, a 2 x 2 H-V matrix per frequency bin of a 2M circulant
-      embedding (exact in distribution for a sum of independent Gaussian processes); cells
-      too narrow for the embedding are drawn per cell and added.
+      of its cells' spectra over the whole range response, a 2 x 2 H-V matrix per frequency
+      bin of a 2M circulant embedding (exact in distribution per gate for a sum of
+      independent Gaussian processes; neighbouring gates are drawn independently); cells too
+      narrow for the embedding are drawn per cell and added.
     - ``covariance``: per cell, paper eq. 13-18 (Cholesky colouring; one factor per distinct
-      width).
-    - ``monte_carlo``: per cell, ``drops_per_cell`` moving drops (paper eq. 5-12).
+      width), for each of the cell's independent range components, which the range response
+      spreads over the gates: neighbouring gates correlate as the filter makes them.
+    - ``monte_carlo``: per cell, ``drops_per_cell`` moving drops (paper eq. 5-12), each at a
+      random place in the cell, spread over the gates likewise.
 
-    Each beam draws from its own random streams (H and V apart). A truth without ZDR, RHOHV
-    and PHIDP (single polarisation), or a run that asks for none of them, skips the V channel.
+    Gates inside the blind range (one pulse length) are zero. Each beam draws from its own
+    random streams (H and V apart). A truth without ZDR, RHOHV and PHIDP (single
+    polarisation), or a run that asks for none of them, skips the V channel.
     """
 
     truth = Input(TRUTH, doc="truth sweep")
     beams = Input(BEAMS, doc="beam geometry")
     pattern = Input(PATTERN, doc="one-way H and V power patterns")
-    range_response = Input(RANGE_RESPONSE, doc="range weighting after the matched filter")
+    range_response = Input(
+        RANGE_RESPONSE, doc="radiated pulse, receive filter and their point-target response"
+    )
 
-    iq = Output(IQ, doc="echo voltages at the matched-filter output")
+    iq = Output(IQ, doc="echo voltages at the receive filter's output")
     signal_power = Output(SIGNAL_POWER, doc="expected echo power per gate")
     echo_correlations = Output(ECHO_CORRELATIONS, doc="expected echo correlations per gate")
     calibration = Output(CALIBRATION, doc="radar constant for power -> dBZ")
@@ -531,6 +545,14 @@ class WeatherChannel(Block):
         min=-200.0,
         max=0.0,
         doc="ignore truth radials whose two-way weight is below this level (from the peak)",
+    )
+    range_support_db = Param(
+        -80.0,
+        units="dB",
+        min=-150.0,
+        max=-20.0,
+        doc="range-response terms (gate offsets, sub-gate components, Doppler orders) below "
+        "this level from the strongest are dropped",
     )
     precision = Param(
         "float32",
@@ -580,19 +602,26 @@ class WeatherChannel(Block):
             * 1e-18
             / ((4 * np.pi) ** 3 * lam**4 * 10 ** (self.p["loss_db"] / 10))
         )
-        k_off, r_k = range_weights(response, gate_m)
-        pad = int(np.max(np.abs(k_off)))
         n_b, n_g = beams.sizes["beam"], rng_m.size
 
-        # What depends only on the truth is prepared once and reused by every chunk (and, with
-        # threads, by every thread): it is a pure function of the inputs, memoised.
-        key = (id(truth), pad, k0, prt, lam, pulses, method, dtype)
+        # What depends only on the truth and the range response is prepared once and reused
+        # by every chunk (and, with threads, by every thread): a pure function of the inputs,
+        # memoised.
+        key = (id(truth), id(response), k0, prt, lam, pulses, method, dtype)
+        key += (self.p["range_support_db"], self.p["drops_per_cell"])
         if self._prepared is None or self._prepared[0] != key:
-            cells = TruthCells(
-                truth, pad, k0, prt, lam, pulses, method, self.p["drops_per_cell"], dtype
+            ranges = range_model(
+                response,
+                gate_m,
+                lam,
+                _largest_speed(truth),
+                floor_db=self.p["range_support_db"],
             )
-            self._prepared = (key, cells)
-        cells = self._prepared[1]
+            cells = TruthCells(
+                truth, ranges, k0, prt, lam, pulses, method, self.p["drops_per_cell"], dtype
+            )
+            self._prepared = (key, (ranges, cells))
+        ranges, cells = self._prepared[1]
 
         d_az = pattern["azimuth_offset_deg"].values
         d_el = pattern["elevation_offset_deg"].values
@@ -612,18 +641,29 @@ class WeatherChannel(Block):
             omega = cell_solid_angles(profile, d_az, delta[near], width_deg)
             keep = omega.max(axis=0) >= omega.max() * 10 ** (self.p["support_db"] / 10)
             near, omega = near[keep], omega[:, keep]
-            corr[i] = range_sum(self._expected(cells, near, omega), k_off, r_k, pad, n_g)
+            corr[i] = range_correlate(
+                self._expected(cells, near, omega, ranges.power.shape[0]),
+                ranges.power.T,
+                n_g,
+                exact=True,
+            )
             if method == "expected" or near.size == 0:
                 continue
             gen_h, gen_v = chunk.rng(int(beam)), chunk.rng(int(beam), 1)
-            draw = BeamDraw(cells, near, omega, k_off, r_k, pad, gen_h, gen_v, need_v)
+            draw = BeamDraw(cells, near, omega, ranges, gen_h, gen_v, need_v)
             if method == "combined":
                 self._combined(iq[i], draw)
                 self._tones(iq[i], draw)
             self._per_cell(iq[i], draw)
 
+        # The receiver is off while the pulse goes out: nothing is received inside the blind
+        # range (the processor masks those gates and the scorer never scores them).
+        blind_m = float(response.attrs["blind_range_m"])
+        blind = rng_m < blind_m
+        iq[:, :, blind] = 0
+        corr[:, blind] = 0
         omega_cal = pattern["calibration_solid_angle_sr"].values  # beam x polarisation
-        constant_db = 10 * np.log10(k0 * omega_cal * r_k.sum())
+        constant_db = 10 * np.log10(k0 * omega_cal * ranges.total_m)
         calibration = xr.Dataset(
             {
                 "radar_constant_db": (
@@ -640,7 +680,7 @@ class WeatherChannel(Block):
                 "wavelength_m": lam,
                 "prt_s": prt,
                 "dual_polarization": int(all(k in truth for k in POLARIMETRIC_FIELDS)),
-                "blind_range_m": float(response.attrs["blind_range_m"]),
+                "blind_range_m": blind_m,
                 "calibration": str(pattern.attrs["calibration"]),
             },
         )
@@ -653,19 +693,33 @@ class WeatherChannel(Block):
         }
 
     @staticmethod
-    def _expected(cells: TruthCells, near: np.ndarray, omega: np.ndarray) -> np.ndarray:
-        """Expected correlations per padded truth gate (before range weighting), gate x 5."""
-        w_h = omega[0] @ cells.s_h[near]
-        w_v = omega[1] @ cells.s_v[near]
-        r1_h = omega[0] @ cells.r1_h[near]
-        r1_v = omega[1] @ cells.r1_v[near]
-        r0_hv = np.sqrt(omega[0] * omega[1]) @ cells.cross[near]
-        return np.stack([w_h, w_v, r1_h, r1_v, r0_hv], axis=-1)
+    def _expected(cells: TruthCells, near: np.ndarray, omega: np.ndarray, terms: int) -> Any:
+        """Expected correlations per padded truth gate, before range weighting: gate x term x 5.
+
+        Term n carries each cell's contribution times u^n (its normalised velocity), so the
+        range response's power r_d(u) = Σ_n power[n, d] u^n weighs every cell at its own
+        velocity (range-Doppler coupling).
+        """
+        out = np.empty((cells.s_h.shape[1], terms, len(CORRELATION_PRODUCTS)), np.complex128)
+        sq = np.sqrt(omega[0] * omega[1])
+        u = cells.u[near]
+        for n in range(terms):
+            un = u**n if n else 1.0
+            out[:, n, 0] = omega[0] @ (cells.s_h[near] * un)
+            out[:, n, 1] = omega[1] @ (cells.s_v[near] * un)
+            out[:, n, 2] = omega[0] @ (cells.r1_h[near] * un)
+            out[:, n, 3] = omega[1] @ (cells.r1_v[near] * un)
+            out[:, n, 4] = sq @ (cells.cross[near] * un)
+        return out
 
     @staticmethod
     def _per_cell(out: np.ndarray, beam: BeamDraw) -> None:
-        """Add the per-cell draws (covariance, monte_carlo, or combined's narrow cells)."""
-        cells, near, omega, k_off, r_k, pad, gen_h, gen_v, need_v = beam
+        """Add the per-cell draws (covariance, monte_carlo, or combined's narrow cells).
+
+        Each cell draws its independent range components, which the range model spreads over
+        the gates it reaches (:class:`pasim_blocks.fasttime.GateSum`).
+        """
+        cells, near, omega, ranges, gen_h, gen_v, need_v = beam
         if cells.per_cell is None or cells.model is None:
             return
         # Cells ordered by gate, then radial, so that each gate's sum is one segment.
@@ -674,23 +728,34 @@ class WeatherChannel(Block):
             return
         n_g, pulses = out.shape[1], out.shape[2]
         rows = near[jj]
-        h, v = cells.model.draw(rows, gg, gen_h, gen_v, need_v)
-        volts = np.zeros((2, n_g + 2 * pad, pulses), out.dtype)
-        starts = np.flatnonzero(np.diff(gg, prepend=-1))
-        a_h = np.sqrt(cells.s_h[rows, gg] * omega[0, jj]).astype(cells.dtype)[:, None]
-        volts[0, gg[starts]] = np.add.reduceat(a_h * h, starts, axis=0)
-        if v is not None:
-            a_v = np.sqrt(cells.s_v[rows, gg] * omega[1, jj]).astype(cells.dtype)[:, None]
-            volts[1, gg[starts]] = np.add.reduceat(a_v * v, starts, axis=0)
-        out += range_sum(volts.transpose(1, 0, 2), k_off, np.sqrt(r_k), pad, n_g).transpose(1, 0, 2)
+        u = cells.u[rows, gg]
+        a_h = np.sqrt(cells.s_h[rows, gg] * omega[0, jj])
+        a_v = np.sqrt(cells.s_v[rows, gg] * omega[1, jj])
+        sums = [GateSum(ranges, int(gg[0]), int(gg[-1]), n_g, pulses, out.dtype) for _ in out]
+        # Cells in batches, so that the drawn components stay a few tens of MB.
+        batch = max(1, 2_000_000 // (ranges.components * pulses))
+        for a in range(0, gg.size, batch):
+            c = slice(a, min(gg.size, a + batch))
+            h, v = cells.model.draw(rows[c], gg[c], gen_h, gen_v, need_v, ranges.basis)
+            for acc, terms, amp in ((sums[0], h, a_h), (sums[1], v, a_v)):
+                if terms:
+                    acc.add([(z, f * amp[c]) for z, f in terms], u[c], gg[c])
+        for k in range(2 if need_v else 1):
+            lo, volts = sums[k].voltages()
+            out[k, lo : lo + volts.shape[0]] += volts
 
     @staticmethod
     def _combined(out: np.ndarray, beam: BeamDraw) -> None:
-        """Add each gate's series drawn from its combined spectral matrix (circulant embedding)."""
-        cells, near, omega, k_off, r_k, pad, gen_h, gen_v, need_v = beam
+        """Add each gate's series drawn from its combined spectral matrix (circulant embedding).
+
+        The spectra of the cells are summed per padded gate with the pattern weights (times
+        u^n, one set per term of the range power polynomial), then over the range response.
+        """
+        cells, near, omega, ranges, gen_h, gen_v, need_v = beam
         n_g, pulses = out.shape[1], out.shape[2]
         dtype = cells.dtype
         n = cells.spectra.shape[1]
+        pad, terms = ranges.pad, ranges.power.shape[0]
         wide = cells.wide[near]
         gsel = np.flatnonzero(wide.any(axis=0))
         if not gsel.size:
@@ -704,17 +769,25 @@ class WeatherChannel(Block):
             products.append(omega[1][:, None] * np.where(wide, cells.s_v[near], 0.0) / scale)
             x = np.sqrt(omega[0] * omega[1])[:, None] * np.where(wide, cells.cross[near], 0) / scale
             products += [x.real, x.imag]
-        weights = np.stack(products)[:, :, gsel].transpose(2, 0, 1).astype(dtype)  # g x P x J
+        u = cells.u[near]
+        stacked = [p * u**k if k else p for k in range(terms) for p in products]
+        weights = np.stack(stacked)[:, :, gsel].transpose(2, 0, 1).astype(dtype)  # g x TP x J
         code = cells.code[near][:, gsel].T  # g x J
-        combined = np.zeros((n_g + 2 * pad, len(products), n), dtype)
+        n_p = len(products)
+        combined = np.zeros((n_g + 2 * pad, terms * n_p, n), dtype)
         # Gates in blocks so the gathered spectra (gates x radials x N) stay a few tens of MB.
         step = max(1, 4_000_000 // (near.size * n))
         for a in range(0, gsel.size, step):
             b = min(gsel.size, a + step)
             combined[gsel[a:b]] = weights[a:b] @ cells.spectra[code[a:b]]
-        # Only output gates that some echo gate reaches through the range weighting.
+        # Only output gates that some echo gate reaches through the range response.
         lo, hi = max(0, gsel[0] - 2 * pad), min(n_g, gsel[-1] + 1)
-        s = range_sum(combined[lo:], k_off, r_k, pad, hi - lo)  # gate x P x N
+        s = range_correlate(
+            combined[lo : hi + 2 * pad].reshape(hi - lo + 2 * pad, terms, n_p * n),
+            ranges.power.T,
+            hi - lo,
+            exact=True,
+        ).reshape(hi - lo, n_p, n)
         gates = lo + np.flatnonzero(s[:, 0].max(axis=1) > 0)
         if not gates.size:
             return
@@ -738,38 +811,49 @@ class WeatherChannel(Block):
     @staticmethod
     def _tones(out: np.ndarray, beam: BeamDraw) -> None:
         """Add the zero-width cells: one random tone per output gate and velocity (exact)."""
-        cells, near, omega, k_off, r_k, pad, gen_h, gen_v, need_v = beam
+        cells, near, omega, ranges, gen_h, gen_v, need_v = beam
         jj, gg = np.nonzero(cells.tone[near])
         if not jj.size:
             return
-        n_g = out.shape[1]
+        n_g, pad = out.shape[1], ranges.pad
         rows = near[jj]
         code = cells.tone_code[rows, gg]
         w = [omega[0][jj] * cells.s_h[rows, gg]]
         if need_v:
             x = np.sqrt(omega[0][jj] * omega[1][jj]) * cells.cross[rows, gg]
             w += [omega[1][jj] * cells.s_v[rows, gg], x.real, x.imag]
-        # Each cell reaches output gate g = gate - pad - k with weight r_k.
-        gate = np.concatenate([gg - pad - k for k in k_off])
-        keys = np.concatenate([code] * len(k_off))
-        r = np.repeat(r_k, gg.size)
-        ok = (gate >= 0) & (gate < n_g)
+        # Each cell reaches output gate g = gate - pad - d with weight r_d(u) (its velocity's).
+        offsets = ranges.offsets
+        gate = (gg[None, :] - pad - offsets[:, None]).ravel()
+        keys = np.tile(code, offsets.size)
+        r = ranges.weights(cells.u[rows, gg]).T.ravel()  # offset-major, like gate
+        ok = (gate >= 0) & (gate < n_g) & (r > 0)
         n_codes = cells.tone_velocities.size
         uniq, inv = np.unique((gate * n_codes + keys)[ok], return_inverse=True)
-        tot = [np.bincount(inv, weights=(r * np.tile(c, len(k_off)))[ok]) for c in w]
+        tot = [np.bincount(inv, weights=(r * np.tile(c, offsets.size))[ok]) for c in w]
         g_u, c_u = uniq // n_codes, uniq % n_codes
         z1 = _complex_normal(gen_h, (uniq.size,), np.float64)
-        a_h = np.sqrt(tot[0]) * z1
+        a_h = np.sqrt(np.maximum(tot[0], 0)) * z1
         # Keys sort by gate first: each gate's tones are one segment to sum.
         starts = np.flatnonzero(np.diff(g_u, prepend=-1))
         gates = g_u[starts]
         out[0, gates] += np.add.reduceat(a_h[:, None] * cells.tones[c_u], starts, axis=0)
         if need_v:
-            inv_h = np.divide(1, np.sqrt(tot[0]), out=np.zeros_like(tot[0]), where=tot[0] > 0)
+            root = np.sqrt(np.maximum(tot[0], 0))
+            inv_h = np.divide(1, root, out=np.zeros_like(root), where=root > 0)
             l21 = (tot[2] + 1j * tot[3]) * inv_h
             l22 = np.sqrt(np.maximum(tot[1] - np.abs(l21) ** 2, 0))
             a_v = l21 * z1 + l22 * _complex_normal(gen_v, (uniq.size,), np.float64)
             out[1, gates] += np.add.reduceat(a_v[:, None] * cells.tones[c_u], starts, axis=0)
+
+
+def _largest_speed(truth: xr.Dataset) -> float:
+    """The largest |radial velocity| of a cell with echo (0 without velocities)."""
+    if "VRADH" not in truth:
+        return 0.0
+    v = np.abs(truth["VRADH"].values[np.isfinite(truth["DBZH"].values)])
+    v = v[np.isfinite(v)]
+    return float(v.max()) if v.size else 0.0
 
 
 def _check_coverage(
