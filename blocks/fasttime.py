@@ -286,7 +286,7 @@ def range_correlate(a: np.ndarray, w: np.ndarray, n_out: int, exact: bool = Fals
     )
 
 
-def _blocked_correlate(flat: np.ndarray, w: np.ndarray, n_out: int, block: int = 128) -> np.ndarray:
+def _blocked_correlate(flat: np.ndarray, w: np.ndarray, n_out: int, block: int = 32) -> np.ndarray:
     """range_correlate by blocks of output gates, each one matrix product with a Toeplitz band."""
     q_len, n_c = w.shape
     block = min(block, n_out)
