@@ -20,8 +20,9 @@ that the timing ratios are measured back to back on the same machine state (best
 - ``kind: timing``: the weather channel's seconds per graph and level, best of ``--repeat``,
   and their ratio to the first graph's.
 
-With ``--plots DIR`` draws DIR/waveforms_bias.png (bias against truth reflectivity) and
-DIR/waveforms_ray.png (a ray through the convective line, every graph at the expected level).
+With ``--plots DIR`` draws DIR/waveforms_weather_bias.png (bias against truth reflectivity)
+and DIR/waveforms_weather_ray.png (a ray through the convective line, every graph at the
+expected level).
 """
 
 from __future__ import annotations
@@ -41,6 +42,16 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 MOMENTS = ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH")
 BINS = np.arange(10.0, 65.0, 5.0)
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
 
 
 def run(
@@ -139,7 +150,7 @@ def plot(results: dict, path_dir: str, level: str, ray_beam: int | None = None) 
         ax.legend(fontsize=8)
     fig.suptitle("gates scored by every graph", fontsize=9)
     fig.tight_layout()
-    fig.savefig(Path(path_dir) / "waveforms_bias.png", dpi=90)
+    fig.savefig(Path(path_dir) / "waveforms_weather_bias.png", dpi=90)
 
     first = results[graphs[0]]
     truth = first["fields"]["truth_DBZH"]
@@ -169,7 +180,7 @@ def plot(results: dict, path_dir: str, level: str, ray_beam: int | None = None) 
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(Path(path_dir) / "waveforms_ray.png", dpi=90)
+    fig.savefig(Path(path_dir) / "waveforms_weather_ray.png", dpi=90)
 
 
 def main() -> None:
@@ -181,7 +192,7 @@ def main() -> None:
         nargs="+",
         default=["generic_radar", "waveform_lfm", "waveform_taylor_lfm", "waveform_nlfm"],
     )
-    ap.add_argument("--levels", nargs="+", default=["expected", "combined", "covariance"])
+    ap.add_argument("--levels", nargs="*", default=["expected", "combined", "covariance"])
     ap.add_argument("--seeds", nargs="+", type=int, default=[0])
     ap.add_argument("--repeat", type=int, default=3, help="timing runs per graph (best of)")
     ap.add_argument("--timing-levels", nargs="*", default=["combined"])
@@ -208,7 +219,7 @@ def main() -> None:
         {
             "kind": "machine",
             "date": time.strftime("%Y-%m-%d"),
-            "machine": platform.processor() or platform.machine(),
+            "machine": cpu_model(),
             "cpus": os.cpu_count(),
             "python": platform.python_version(),
             "numpy": np.__version__,

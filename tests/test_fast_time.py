@@ -244,10 +244,12 @@ def test_range_sidelobes_of_a_core_carry_the_expected_power(method):
     assert power[:, far].mean() / expected[:, far].mean() == pytest.approx(1.0, abs=0.1)
 
 
-def test_long_pulse_keeps_100_db_in_float32():
-    """An 80 dBZ core beside -20 dBZ through a 10 us LFM, combined level in float32: gates
-    beyond the range response's reach come back with their own (100 dB weaker) power, those
-    inside it with the core's sidelobes, both as expected (relative standard error ~0.03).
+@pytest.mark.parametrize("method", ["combined", "covariance"])
+def test_long_pulse_keeps_100_db_in_float32(method):
+    """An 80 dBZ core beside -20 dBZ through a 10 us LFM, in float32: gates beyond the range
+    response's reach come back with their own (100 dB weaker) power, those inside it with
+    the core's sidelobes, both as expected (relative standard error ~0.03). The combined
+    level sums powers along range (exact products), the per-cell level voltages (FFT).
     """
     fs = 7.2e6
     response = matched(lfm(3.6e6, 10e-6, fs), fs)
@@ -255,7 +257,7 @@ def test_long_pulse_keeps_100_db_in_float32():
     truth = core_truth(core=(20, 24), core_dbz=80.0, background_dbz=-20.0)
     inputs = ideal_inputs(truth, beams, response, pulses=32)
     pad = range_model(response, GATE, LAMBDA, 5.0).pad
-    out = weather(inputs, beams, "combined", precision="float32")
+    out = weather(inputs, beams, method, precision="float32")
     assert np.isfinite(out["iq"]).all()
     power = np.abs(out["iq"][..., 0].astype(np.complex128)) ** 2
     expected = out["signal_power"][..., 0].astype(np.float64)
