@@ -33,16 +33,6 @@ def _steer(text: str) -> tuple[float, float]:
     return az, el
 
 
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, found {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"the seed must be >= 0, found {value}")
-    return value
-
-
 def _span(text: str) -> float:
     try:
         value = float(text)
@@ -160,7 +150,7 @@ class PatternCommand:
     help = "measure a graph's antenna pattern: beamwidths, sidelobes, gain, cross-pol, ZDR bias"
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
-        from pasim_graph.cli import add_graph_arguments
+        from pasim_graph.cli import add_graph_arguments, parse_seed
 
         parser.add_argument("graph", help="graph file")
         parser.add_argument(
@@ -172,7 +162,7 @@ class PatternCommand:
         )
         parser.add_argument(
             "--seed",
-            type=_seed,
+            type=parse_seed,
             default=0,
             help="run seed that draws the channel errors, as `pasim run --seed` (default 0)",
         )

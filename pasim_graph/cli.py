@@ -336,17 +336,13 @@ def cmd_tradeoff(args: argparse.Namespace) -> int:
 
 
 def cmd_score(args: argparse.Namespace) -> int:
-    from .store import IncompleteStoreError, open_volume, summarize
+    from .store import NotAStoreError, open_sweep, summarize
 
     try:
-        tree = open_volume(args.store)
-    except IncompleteStoreError as exc:
+        sweep, _ = open_sweep(args.store)
+    except NotAStoreError as exc:
         raise UserError(str(exc)) from None
-    except (FileNotFoundError, OSError, ValueError) as exc:
-        raise UserError(f"{args.store}: cannot open store: {exc}") from None
-    if "sweep_0" not in tree.children:
-        raise UserError(f"{args.store}: no sweep_0 group; is this a PASIM-graph store?")
-    scores = summarize(tree["sweep_0"].to_dataset())
+    scores = summarize(sweep)
     if not scores:
         raise UserError(f"{args.store}: holds no scored fields (the graph had no scorer)")
     if args.json:
@@ -415,7 +411,7 @@ def parser() -> argparse.ArgumentParser:
     add_graph_arguments(run)
     run.add_argument(
         "--seed",
-        type=_seed,
+        type=parse_seed,
         default=0,
         help="random seed, a whole number >= 0 (default 0): the same graph, seed and sector "
         "give the same numbers whatever the chunking",
@@ -489,7 +485,7 @@ def parser() -> argparse.ArgumentParser:
     )
     tr.add_argument("graph", help="graph file (YAML)")
     add_graph_arguments(tr)
-    tr.add_argument("--seed", type=_seed, default=0, help="random seed, >= 0 (default 0)")
+    tr.add_argument("--seed", type=parse_seed, default=0, help="random seed, >= 0 (default 0)")
     tr.add_argument(
         "--chunk", type=_positive("--chunk"), default=8, metavar="BEAMS", help="beams per chunk"
     )
@@ -539,7 +535,8 @@ def load_graph(args: argparse.Namespace) -> Graph:
     return _graph(args)
 
 
-def _seed(text: str) -> int:
+def parse_seed(text: str) -> int:
+    """argparse type of a run seed (a whole number >= 0), for plugin commands too."""
     try:
         value = int(text)
     except ValueError:

@@ -21,6 +21,10 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from .store import NotAStoreError, open_sweep
+
+__all__ = ["NotAStoreError", "open_sweep"]  # re-exported: the plot reads a run with them
+
 MOMENTS = ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH")
 
 
@@ -46,27 +50,6 @@ STYLES: dict[str, Style] = {
     "VRADH": Style("radial velocity", "m/s", -30.0, 30.0, "balance", 5.0),
     "WRADH": Style("spectrum width", "m/s", 0.0, 8.0, "NWS_SPW", 3.0),
 }
-
-
-class NotAStoreError(ValueError):
-    """The path is not a finished PASIM-graph run."""
-
-
-def open_sweep(path: str | Path) -> tuple[xr.Dataset, dict[str, Any]]:
-    """The first sweep of a run and the root attributes; :class:`NotAStoreError` naming it."""
-    from .store import IncompleteStoreError, open_volume
-
-    if not Path(path).exists():
-        raise NotAStoreError(f"{path}: no such store")
-    try:
-        tree = open_volume(path)
-    except IncompleteStoreError as exc:
-        raise NotAStoreError(str(exc)) from None
-    except (OSError, ValueError, KeyError) as exc:
-        raise NotAStoreError(f"{path}: not a PASIM-graph store ({exc})") from None
-    if "sweep_0" not in tree.children:
-        raise NotAStoreError(f"{path}: no sweep_0 group; is this a PASIM-graph store?")
-    return tree["sweep_0"].to_dataset(), {str(k): v for k, v in tree.attrs.items()}
 
 
 def available(sweep: xr.Dataset, fields: list[str] | None = None) -> tuple[list[str], list[str]]:

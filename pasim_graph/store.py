@@ -418,6 +418,29 @@ class IncompleteStoreError(RuntimeError):
     pass
 
 
+class NotAStoreError(ValueError):
+    """The path is not a finished PASIM-graph run."""
+
+
+def open_sweep(path: str | Path) -> tuple[xr.Dataset, dict[str, Any]]:
+    """The first sweep of a finished run and its root attributes.
+
+    Raises :class:`NotAStoreError` naming the path when it is missing, not a store, or a run
+    that did not finish.
+    """
+    if not Path(path).exists():
+        raise NotAStoreError(f"{path}: no such store")
+    try:
+        tree = open_volume(path)
+    except IncompleteStoreError as exc:
+        raise NotAStoreError(str(exc)) from None
+    except (OSError, ValueError, KeyError) as exc:
+        raise NotAStoreError(f"{path}: not a PASIM-graph store ({exc})") from None
+    if "sweep_0" not in tree.children:
+        raise NotAStoreError(f"{path}: no sweep_0 group; is this a PASIM-graph store?")
+    return tree["sweep_0"].to_dataset(), {str(k): v for k, v in tree.attrs.items()}
+
+
 def open_volume(path: str | Path) -> xr.DataTree:
     """Open a finished run's volume (refuses a run that was interrupted)."""
     path = Path(path)
