@@ -10,6 +10,7 @@ import argparse
 import inspect
 import json
 import math
+import os
 import sys
 import time
 import warnings
@@ -692,6 +693,11 @@ def main(argv: list[str] | None = None) -> int:
         except KeyboardInterrupt:
             print("interrupted", file=sys.stderr)
             return 130
+        except BrokenPipeError:
+            # The reader went away (`pasim score ... | head`): not an error of ours. Point
+            # stdout at nothing so the interpreter's final flush cannot fail again.
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            return 0
     return EXIT_USAGE
 
 

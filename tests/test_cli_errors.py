@@ -487,3 +487,20 @@ def test_build_prints_no_setuptools_warnings(tmp_path):
     import zipfile
 
     assert "pasim_blocks/data/KLBB20160601_150025_V06" in zipfile.ZipFile(wheel).namelist()
+
+
+def test_a_reader_that_stops_early_gets_no_traceback():
+    """`pasim blocks --json | head -c 10`: the pipe closes while pasim still writes (its
+    output is several times the 64 KiB pipe buffer); pasim stops quietly with exit 0."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pasim_graph", "blocks", "--json"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        cwd=ROOT,
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    assert proc.stdout.read(10)
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 0, err
+    assert "Traceback" not in err and "BrokenPipe" not in err
