@@ -14,9 +14,16 @@ ports). The beam's transmit gain on a pulse is the mean of the N gains (their co
 the beam axis, for equal drive): the jitter averages down as 1/N in variance, while its mean
 loss stays. The pulse-to-pulse fluctuation of the sidelobes is not modelled.
 
+Transmission modes (the weather channel's, read from its calibration output): in SHV both
+transmitters fire every pulse and the H port's echo takes the H transmitter's gain, the V
+port's the V one's (exact without cross-polar coupling; with it, the part of a port's echo
+that the other port's transmission leaked into is off by the ratio of the two gains, a
+product of two small quantities). In AHV a pulse has one transmitter (H on even pulses, V on
+odd ones), whose gain multiplies the echo at both ports: exact.
+
 With no pulses (the weather channel's ``expected`` level) the expected correlations are scaled
-by the exact moments of that gain instead: lag 0 by E|G|^2, lag 1 by |E G|^2 (independent
-pulses), and the H-V cross-correlation by E[G_H* G_V].
+by the exact moments of that gain instead: lag 0 by E|G|^2, lags between different pulses by
+|E G|^2 (independent pulses), and the lag-0 H-V cross-correlation by E[G_H* G_V].
 """
 
 from __future__ import annotations
@@ -27,7 +34,7 @@ import numpy as np
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
-from .signals import CORRELATION_PRODUCTS, ECHO_CORRELATIONS, IQ
+from .signals import CALIBRATION, CORRELATION_PRODUCTS, ECHO_CORRELATIONS, IQ
 
 # Deviates drawn per block of this many (transmitter x pulse) pairs, to bound memory.
 _BLOCK = 1 << 20
@@ -59,6 +66,7 @@ class TransmitterJitter(Block):
 
     iq_in = Input(IQ, doc="echo voltages from the weather channel")
     echo_correlations_in = Input(ECHO_CORRELATIONS, doc="expected echo correlations")
+    calibration = Input(CALIBRATION, doc="the weather channel's transmission mode (SHV or AHV)")
     iq = Output(IQ, doc="echo voltages with each pulse's transmit gain")
     echo_correlations = Output(ECHO_CORRELATIONS, doc="expected correlations with the jitter")
 
@@ -104,20 +112,30 @@ class TransmitterJitter(Block):
             self.p["transmitters"],
             self.p["hv_correlation"],
         )
-        scale = {
-            "R0_H": m["power"],
-            "R0_V": m["power"],
-            "R1_H": abs(m["mean"]) ** 2,
-            "R1_V": abs(m["mean"]) ** 2,
-            "R0_HV": m["cross"],
-        }
         for i, name in enumerate(CORRELATION_PRODUCTS):
-            corr[..., i] *= scale[name]
+            corr[..., i] *= correlation_scale(name, m)
         pulses = iq.shape[2]
         if pulses == 0:
             return {"iq": iq, "echo_correlations": corr}
+        alternate = inputs["calibration"].attrs.get("transmission", "shv") == "ahv"
         out = np.empty_like(iq)
         for i, beam in enumerate(chunk.beams):
             g = self.gains(chunk.rng(int(beam)), pulses).astype(np.complex64)
+            if alternate:
+                # Pulse m is transmitted by port m % 2 alone; both ports receive its echo.
+                g = np.repeat(g[np.arange(pulses), np.arange(pulses) % 2][:, None], 2, axis=1)
             out[i] = iq[i] * g[None, :, :]
         return {"iq": out, "echo_correlations": corr}
+
+
+def correlation_scale(name: str, moments: dict[str, complex]) -> complex:
+    """What the jitter does to an expected correlation product (``CORRELATION_PRODUCTS``).
+
+    Lag 0 of one port: E|G|^2; products of two different pulses: |E G|^2 (independent gains,
+    whichever transmitters); the lag-0 H-V product: E[G_H* G_V].
+    """
+    if name in ("R0_H", "R0_V"):
+        return moments["power"]
+    if name == "R0_HV":
+        return moments["cross"]
+    return complex(abs(moments["mean"]) ** 2)

@@ -39,6 +39,88 @@ def correlations(iq_h: np.ndarray, iq_v: np.ndarray | None, doppler: bool = True
     return out
 
 
+def alternate_correlations(
+    iq_h: np.ndarray, iq_v: np.ndarray | None, doppler: bool = True, polarimetric: bool = True
+) -> dict:
+    """Sample correlations of an alternate-transmission (AHV) dwell along the pulse axis.
+
+    Pulses alternate H (even) and V (odd) transmission; both ports receive every pulse. h is
+    the H port on H pulses and v the V port on V pulses. Returns lag-0 powers of h and v,
+    their lag-2 autocorrelations (``R2_H``, ``R2_V``; one transmit period, 2T, apart) and the
+    lag-1 cross-correlations of consecutive pulses, ``R1_HV`` = <h_2k* v_2k+1> and ``R1_VH`` =
+    <v_2k+1* h_2k+2> (the R_a and R_b of Zrnic 1991). ``iq_v`` None, ``doppler`` or
+    ``polarimetric`` False leave out what needs them.
+    """
+    h = iq_h[..., 0::2]
+    out = {"R0_H": np.mean(np.abs(h) ** 2, axis=-1)}
+    if doppler:
+        out["R2_H"] = np.mean(np.conj(h[..., :-1]) * h[..., 1:], axis=-1)
+    if iq_v is not None:
+        v = iq_v[..., 1::2]
+        out["R0_V"] = np.mean(np.abs(v) ** 2, axis=-1)
+        out["R2_V"] = np.mean(np.conj(v[..., :-1]) * v[..., 1:], axis=-1)
+        if polarimetric:
+            n = v.shape[-1]
+            out["R1_HV"] = np.mean(np.conj(h[..., :n]) * v, axis=-1)
+            out["R1_VH"] = np.mean(np.conj(v[..., : h.shape[-1] - 1]) * h[..., 1:], axis=-1)
+    return out
+
+
+def alternate_moments(
+    corr: dict,
+    noise_h: float | np.ndarray,
+    noise_v: float | np.ndarray,
+    prt_s: float,
+    wavelength_m: float,
+) -> dict[str, np.ndarray]:
+    """Noise-corrected estimates of an alternate-transmission (AHV) dwell (Zrnic 1991).
+
+    With T the pulse spacing, S_h and S_v the noise-corrected powers of h and v, R(2T) =
+    R2_H + R2_V (the co-polar lag 2, one transmit period), R_a = R1_HV and R_b = R1_VH:
+
+    - velocity -lambda / (8 pi T) arg R(2T): Nyquist velocity lambda / (8T), half of SHV's;
+    - width lambda / (4 sqrt(2) pi T) sqrt(ln((S_h + S_v) / |R(2T)|)) (Gaussian spectrum);
+    - ZDR S_h / S_v;
+    - rho_hv (|R_a| + |R_b|) / (2 sqrt(S_h S_v) rho(T)), rho(T) = rho(2T)^(1/4) with rho(2T) =
+      |R(2T)| / (S_h + S_v) (the Gaussian spectrum's lag-1 coherency from its lag 2);
+    - phi_DP arg(R_a R_b*) / 2: the Doppler phase cancels; phi_DP comes modulo 180 deg, in
+      [0, 180) (a Doppler shift of a whole SHV Nyquist interval changes phi_DP by 180 deg and
+      leaves the alternate pulses the same).
+
+    Returns what the correlations allow of, as :func:`moments_from_correlations` does.
+    """
+    p_h = np.real(corr["R0_H"]) - noise_h
+    ok_h = p_h > 0
+    nan = np.float64(np.nan)
+    out: dict[str, np.ndarray] = {"S_H": p_h}
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p_v = np.real(corr["R0_V"]) - noise_v if "R0_V" in corr else None
+        if "R2_H" in corr:
+            r2 = corr["R2_H"] + (corr["R2_V"] if "R2_V" in corr else 0)
+            power = p_h + (p_v if p_v is not None else 0)
+            ok = ok_h & (power > 0) & (np.abs(r2) > 0)
+            velocity = -wavelength_m / (8 * np.pi * prt_s) * np.angle(r2)
+            ratio = np.log(np.where(ok, power, np.nan) / np.abs(r2))
+            width = wavelength_m / (4 * np.sqrt(2) * np.pi * prt_s) * np.sqrt(np.maximum(ratio, 0))
+            out["VRADH"] = np.where(ok, velocity, nan)
+            out["WRADH"] = np.where(ok, width, nan)
+        if p_v is not None:
+            ok = ok_h & (p_v > 0)
+            out["S_V"] = p_v
+            out["ZDR"] = 10 * np.log10(np.where(ok, p_h / p_v, np.nan))
+        if p_v is not None and "R1_HV" in corr:
+            r_a, r_b = corr["R1_HV"], corr["R1_VH"]
+            r2 = corr["R2_H"] + corr["R2_V"]
+            coherency = (np.abs(r2) / np.where(ok, p_h + p_v, np.nan)) ** 0.25
+            out["RHOHV"] = (np.abs(r_a) + np.abs(r_b)) / (
+                2 * np.sqrt(np.where(ok, p_h * p_v, np.nan)) * coherency
+            )
+            out["PHIDP"] = np.where(
+                ok, np.mod(np.rad2deg(np.angle(r_a * np.conj(r_b))) / 2, 180.0), nan
+            )
+    return out
+
+
 def moments_from_correlations(
     corr: dict,
     noise_h: float | np.ndarray,
@@ -115,6 +197,13 @@ class PulsePairProcessor(Block):
     channel's ``expected`` level) is estimated from the expected echo correlations instead,
     without noise. Single-polarisation runs (calibration ``dual_polarization`` 0) and runs
     that ask for some fields only skip what is not needed.
+
+    The transmission mode comes from the calibration's attributes. In SHV the transmit
+    differential phase is removed from phi_DP. In AHV (H on even pulses, V on odd) the
+    estimators are those of Zrnic (1991) (:func:`alternate_moments`): powers and ZDR from
+    each state's co-polar pulses, velocity and width from the co-polar lag 2 (Nyquist
+    velocity lambda / (8T)), rho_hv and phi_DP (modulo 180 deg) from the lag-1 H-V
+    cross-correlations with the lag-2 coherency correction.
     """
 
     iq = Input(IQ, doc="received I/Q")
@@ -170,9 +259,44 @@ class PulsePairProcessor(Block):
         cal = inputs["calibration"]
         prt = float(inputs["beams"]["prt"].values[0])
         lam = float(cal.attrs["wavelength_m"])
-        dual = bool(cal.attrs.get("dual_polarization", 1)) and chunk.wants(*POLARIMETRIC_FIELDS)
+        mode = str(cal.attrs.get("transmission", "shv"))
+        beta = float(cal.attrs.get("transmit_differential_phase_deg", 0.0))
+        polarimetric = chunk.wants(*POLARIMETRIC_FIELDS)
+        dual = bool(cal.attrs.get("dual_polarization", 1)) and polarimetric
         doppler = chunk.wants("VRADH", "WRADH")
-        if iq.shape[2] == 0:
+        if mode not in ("shv", "ahv"):
+            raise ValueError(f"calibration: unknown transmission {mode!r} (expected shv or ahv)")
+        if mode == "ahv":
+            # The weather channel draws V for AHV's velocity too (its lag 2 of H and V).
+            use_v = bool(cal.attrs.get("dual_polarization", 1)) and (polarimetric or doppler)
+            if iq.shape[2] == 0:
+                if inputs.get("echo_correlations") is None:
+                    raise ValueError(
+                        "the I/Q cube has no pulses (weather method 'expected') but the input "
+                        "'echo_correlations' is not connected"
+                    )
+                expected = inputs["echo_correlations"]
+                corr = {k: expected[..., i] for i, k in enumerate(CORRELATION_PRODUCTS)}
+                keep = (
+                    {"R0_H"}
+                    | ({"R2_H"} if doppler or dual else set())
+                    | ({"R0_V", "R2_V"} if use_v else set())
+                    | ({"R1_HV", "R1_VH"} if dual else set())
+                )
+                est = alternate_moments(
+                    {k: v for k, v in corr.items() if k in keep}, 0.0, 0.0, prt, lam
+                )
+            else:
+                if iq.shape[2] < 4:
+                    raise ValueError(
+                        f"alternate transmission needs at least 4 pulses per dwell (2 of each "
+                        f"polarisation for the lag 2), got {iq.shape[2]}"
+                    )
+                corr = alternate_correlations(
+                    iq[..., 0], iq[..., 1] if use_v else None, doppler or dual, dual
+                )
+                est = alternate_moments(corr, noise[..., 0], noise[..., 1], prt, lam)
+        elif iq.shape[2] == 0:
             # The weather channel's expected level: its expected correlations are what an
             # endless, noise-free dwell would measure.
             if inputs.get("echo_correlations") is None:
@@ -203,6 +327,9 @@ class PulsePairProcessor(Block):
         if "ZDR" in est:
             # The V radar constant may differ from H (patterns); ZDR is corrected for that.
             fields["ZDR"] = est["ZDR"] - (const[:, :1] - const[:, 1:])
+        if "PHIDP" in est and mode == "shv" and beta:
+            # The system's differential phase on transmit is known: calibrated out.
+            est["PHIDP"] = np.mod(est["PHIDP"] - beta, 360.0)
         fields |= {k: est[k] for k in ("RHOHV", "PHIDP", "VRADH", "WRADH") if k in est}
         fields = {k: v for k, v in fields.items() if chunk.wants(k)}
         # Censoring as an operational radar does: a moment is reported only where the
@@ -226,9 +353,15 @@ class PulsePairProcessor(Block):
                 for k, v in fields.items()
             },
             coords={"range": ("range", rng, dict(cf.range))},
-            attrs={"blind_range_m": blind, "calibration": str(cal.attrs["calibration"])},
+            attrs={
+                "blind_range_m": blind,
+                "calibration": str(cal.attrs["calibration"]),
+                "transmission": mode,
+                "phidp_period_deg": 180.0 if mode == "ahv" else 360.0,
+            },
         )
-        nyquist = lam / (4 * prt)
+        # AHV's velocity comes from a lag of two pulses: half the Nyquist velocity.
+        nyquist = lam / (4 * prt) / (2 if mode == "ahv" else 1)
         ds["nyquist_velocity"] = (
             "beam",
             np.full(iq.shape[0], nyquist),

@@ -30,7 +30,8 @@ class NexradScorer(Block):
     A gate is scored where the truth reflectivity is at least ``min_reflectivity_dbz`` and the
     expected SNR at least ``min_snr_db`` (so runs and systems are comparable), and where both
     the estimate and the truth of that moment exist. Velocity is differenced on the circle of
-    the simulated radar's Nyquist interval, phi_DP on 360 deg. ``pasim score`` reduces the
+    the simulated radar's Nyquist interval, phi_DP on 360 deg (180 deg when the moments say it
+    is measured modulo 180, as alternate transmission does). ``pasim score`` reduces the
     errors to bias and standard deviation and judges them against paper Table 3.
     """
 
@@ -100,6 +101,9 @@ class NexradScorer(Block):
             }
         )
         nyquist = est["nyquist_velocity"].values[:, None]
+        # Alternate transmission measures phi_DP modulo 180 deg (as velocity modulo its
+        # Nyquist interval): it is scored on that circle.
+        phidp_period = float(est.attrs.get("phidp_period_deg", 360.0))
         for name, (req_b, req_s) in REQUIREMENTS.items():
             units = MOMENT_UNITS[name]
             if name not in est or name not in ref:
@@ -109,12 +113,12 @@ class NexradScorer(Block):
             if name == "VRADH":
                 err = circular_difference(e, t, 2 * nyquist)
             elif name == "PHIDP":
-                err = circular_difference(e, t, 360.0)
+                err = circular_difference(e, t, phidp_period)
             else:
                 err = e - t
             err = np.where(scored & np.isfinite(err), err, np.nan)
             # Circular moments say their period, so differences of errors can be wrapped too.
-            period = {"VRADH": float(2 * nyquist.flat[0]), "PHIDP": 360.0}.get(name)
+            period = {"VRADH": float(2 * nyquist.flat[0]), "PHIDP": phidp_period}.get(name)
             out[f"truth_{name}"] = (
                 dims,
                 t.astype(np.float32),

@@ -219,8 +219,11 @@ IQ_CUBE = PortType(
 )
 #: Expected (noise-free) signal power per gate and polarisation.
 SIGNAL_POWER = PortType("signal_power", "float32", ("beam", "range", "polarization"), "W")
-#: Expected (noise-free) correlations of the echo per gate: lag-0 and lag-1 of H and V and the
-#: lag-0 H-V cross-correlation E[h* v], in the order of CORRELATION_PRODUCTS.
+#: Expected (noise-free) correlations of the echo per gate, in the order of
+#: CORRELATION_PRODUCTS: of the co-polar H and V series h, v (the H and V ports in SHV; in AHV
+#: the H port on H-transmit pulses and the V port on V-transmit pulses, as if every pulse were
+#: one), lags 0, 1 and 2 of each, E[h* v] at lag 0, and E[h_m* v_m+1], E[v_m* h_m+1] at lag 1
+#: (one pulse apart).
 ECHO_CORRELATIONS = PortType(
     "echo_correlations", "complex128", ("beam", "range", "correlation"), "W"
 )
@@ -249,6 +252,20 @@ CALIBRATION = PortType(
             "dual_polarization": Attr("int", "1 when the V channel carries an echo"),
             "blind_range_m": Attr("float", "gates nearer than this are not estimated"),
             "calibration": Attr("str", "how beams are calibrated: boresight or per_beam"),
+            "transmission": Attr(
+                "str",
+                "shv (H and V every pulse) or ahv (H on even pulses, V on odd; both ports "
+                "receive every pulse); absent: shv",
+                required=False,
+            ),
+            "transmit_differential_phase_deg": Attr(
+                "float", "phase of the V excitation against H in SHV (deg)", required=False
+            ),
+            "cross_polar_coupling": Attr(
+                "int",
+                "1 when the echoes were coupled through co- and cross-polar fields",
+                required=False,
+            ),
         },
     ),
 )
@@ -267,6 +284,12 @@ MOMENTS = PortType(
         {
             "blind_range_m": Attr("float", "gates nearer than this are not estimated"),
             "calibration": Attr("str", "how beams were calibrated: boresight or per_beam"),
+            "transmission": Attr("str", "shv or ahv (see CALIBRATION)", required=False),
+            "phidp_period_deg": Attr(
+                "float",
+                "PHIDP is estimated modulo this: 360, or 180 with alternate transmission",
+                required=False,
+            ),
         },
     ),
 )
@@ -292,7 +315,17 @@ SCORES = PortType(
 )
 
 POLARIZATIONS = ("H", "V")
-CORRELATION_PRODUCTS = ("R0_H", "R0_V", "R1_H", "R1_V", "R0_HV")
+CORRELATION_PRODUCTS = (
+    "R0_H",
+    "R0_V",
+    "R1_H",
+    "R1_V",
+    "R0_HV",
+    "R2_H",
+    "R2_V",
+    "R1_HV",
+    "R1_VH",
+)
 #: The moments a pulse-pair processor estimates, CfRadial names.
 MOMENT_FIELDS = ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH")
 POLARIMETRIC_FIELDS = ("ZDR", "RHOHV", "PHIDP")

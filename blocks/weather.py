@@ -12,6 +12,17 @@ from pasim_graph import Block, Chunk, Input, Output, Param
 
 from .angles import circular_difference
 from .fasttime import GateSum, RangeModel, range_correlate, range_model
+from .polarimetry import (
+    CONJUGATE_SOURCES,
+    MODES,
+    SOURCE_COMPONENTS,
+    cell_covariance,
+    channel_rows,
+    cholesky,
+    pairs,
+    port_channels,
+    receive_channels,
+)
 from .signals import (
     BEAMS,
     CALIBRATION,
@@ -35,6 +46,11 @@ FILL = {"VRADH": 0.0, "WRADH": 1.0, "ZDR": 0.0, "RHOHV": 0.99, "PHIDP": 0.0}
 # Added to the diagonal of each normalised covariance so that narrow spectra (width 0 makes it
 # rank one) still factor in float64; it is a white component 60 dB below the signal.
 JITTER = 1e-6
+
+# A channel's residual variance below this fraction of its own, in a Cholesky factor of a
+# channel covariance, is round-off of a rank-deficient matrix (a cross-polar channel
+# proportional to a co-polar one) and is taken as zero (float32 sums keep about 7 digits).
+FLOOR = {np.float32: 1e-5, np.float64: 1e-10}
 
 #: Fidelity levels of the weather channel, fastest first.
 METHODS = ("expected", "combined", "covariance", "monte_carlo")
@@ -282,6 +298,77 @@ class CellModel:
         # v = [rho x1 + sqrt(1 - rho^2) x2] exp(j phi_DP), as factors on x1 and x2.
         return [(x1, ones)], [(x1, rho * phase), (x2, np.sqrt(1 - rho**2) * phase)]
 
+    def units(
+        self,
+        rows: np.ndarray,
+        gates: np.ndarray,
+        gen_h: np.random.Generator,
+        gen_v: np.random.Generator,
+        count: int,
+        basis: np.ndarray,
+    ) -> list[np.ndarray]:
+        """``count`` independent unit-power series with the cells' Doppler spectrum.
+
+        Each is cell x component x pulse; the first comes from ``gen_h``, the others from
+        ``gen_v``. A cell's received channels are these mixed by the Cholesky factor of its
+        channel covariance (exact in distribution: the cell's H-V covariance does not depend on
+        the lag). ``covariance``: independent coloured sequences (the two of :meth:`draw` when
+        ``count`` is 2). ``monte_carlo``: the cell's drops, moved every PRT, seen with
+        independent uniform backscatter phases per series (they share the drops' velocities
+        and places, as :meth:`draw`'s H and V do).
+        """
+        if self.method == "monte_carlo":
+            return self._drop_units(rows, gates, gen_h, gen_v, count, basis)
+        n, r, pulses = rows.size, basis.shape[0], self.pulses
+        m = np.arange(pulses)[None, :]
+        doppler = (
+            np.exp(
+                (-4j * np.pi * self.prt_s / self.wavelength_m)
+                * (self.field["VRADH"][rows, gates][:, None] * m)
+            )
+            * np.sqrt(0.5)
+        ).astype(self.cdtype)[:, None, :]
+        codes = np.repeat(self.factors.code[rows, gates], r)
+        return [
+            self._complex(self.factors.colour(codes, gen_h if k == 0 else gen_v), n, r) * doppler
+            for k in range(count)
+        ]
+
+    def _drop_units(
+        self,
+        rows: np.ndarray,
+        gates: np.ndarray,
+        gen_h: np.random.Generator,
+        gen_v: np.random.Generator,
+        count: int,
+        basis: np.ndarray,
+    ) -> list[np.ndarray]:
+        n, d, pulses = rows.size, self.drops, self.pulses
+        r, n_fine = basis.shape
+        out = [np.empty((n, r, pulses), self.cdtype) for _ in range(count)]
+        k = -4 * np.pi / self.wavelength_m
+        m = np.arange(pulses)
+        weight = (basis * np.sqrt(n_fine)).astype(self.cdtype)
+        batch = max(1, 2_000_000 // (d * max(pulses, r)))
+        for a in range(0, n, batch):
+            b = min(n, a + batch)
+            rr, gg = rows[a:b], gates[a:b]
+            mean = self.field["VRADH"][rr, gg][:, None]
+            width = np.clip(self.field["WRADH"][rr, gg], 0, None)[:, None]
+            velocity = mean + width * gen_h.standard_normal((b - a, d))
+            position = gen_h.uniform(0.0, 2 * np.pi, (b - a, d))
+            place = gen_h.integers(0, n_fine, (b - a, d))
+            track = np.exp(
+                1j * (position[..., None] + k * velocity[..., None] * (m * self.prt_s))
+            ).astype(self.cdtype)
+            scale = self.cdtype(1 / np.sqrt(d))
+            share = weight[:, place].transpose(1, 0, 2)
+            out[0][a:b] = scale * (share @ track)
+            for z in out[1:]:
+                phase = np.exp(1j * gen_v.uniform(0.0, 2 * np.pi, (b - a, d))).astype(self.cdtype)
+                z[a:b] = scale * ((share * phase[:, None, :]) @ track)
+        return out
+
     def _complex(self, pairs: np.ndarray, n: int, r: int) -> np.ndarray:
         """Rows (real, imaginary) of coloured sequences as complex series: cell x comp x pulse."""
         out = np.empty((n * r, self.pulses), self.cdtype)
@@ -398,6 +485,9 @@ class TruthCells:
             np.sqrt(self.s_h[e] * self.s_v[e]) * rho[e] * _phasor(np.deg2rad(field["PHIDP"][e]))
         )
         self.u = ranges.normalised_velocity(field["VRADH"])
+        self.width, self.velocity, self.lag_scale = width, field["VRADH"], a
+        self._lags: np.ndarray | None = None
+        self._lags_done = np.zeros(0, bool)
         self.pulses = pulses
         self.dtype = dtype
         # The per-cell draws of every level but `expected`: all echo cells for covariance and
@@ -418,6 +508,28 @@ class TruthCells:
             )
         if method == "combined":
             self._spectra(field["VRADH"], width, prt_s, wavelength_m)
+
+    def lags(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Normalised lag-1 and lag-2 correlations r(1), r(2) of the cells of radials ``rows``.
+
+        Computed once per radial, on first use (each radial serves the few dozen beams that
+        see it).
+        """
+        if self._lags is None:
+            self._lags = np.zeros((2, *self.echo.shape), np.complex128)
+            self._lags_done = np.zeros(self.echo.shape[0], bool)
+        todo = np.unique(np.asarray(rows)[~self._lags_done[rows]])
+        if todo.size:
+            a, w, v = self.lag_scale, self.width[todo], self.velocity[todo]
+            self._lags[0, todo] = np.exp(-8.0 * (a * w) ** 2) * _phasor(-4 * a * v)
+            self._lags[1, todo] = np.exp(-32.0 * (a * w) ** 2) * _phasor(-8 * a * v)
+            self._lags_done[todo] = True
+        return self._lags[0, rows], self._lags[1, rows]
+
+    def sources(self, rows: np.ndarray, gates: Any = slice(None)) -> tuple[np.ndarray, ...]:
+        """(S_h, S_v, Y, X) of cells: powers and E[s_hh s_vv*], E[s_hh* s_vv] (W per sr m)."""
+        x = self.cross[rows, gates]
+        return self.s_h[rows, gates], self.s_v[rows, gates], np.conj(x), x
 
     def _spectra(
         self, velocity: np.ndarray, width: np.ndarray, prt_s: float, wavelength_m: float
@@ -467,10 +579,72 @@ class TruthCells:
         ).astype(np.complex64 if self.dtype == np.float32 else np.complex128)
 
 
+class Coupling(NamedTuple):
+    """The two-way polarimetric coupling of one beam's radials (:func:`coupling_weights`).
+
+    ``weights[p, n, j]``: for channel pair p = (k, k') of :func:`pasim_blocks.polarimetry.pairs`
+    and source n (S_h, S_v, Y, X), the integral over radial j of a_k[c] a_k'[c']* (sr): a cell
+    with sources src has E[w_k w_k'*] = sum_n weights[p, n] src_n.
+    """
+
+    channels: int
+    weights: np.ndarray
+
+    def select(self, n: int) -> np.ndarray:
+        """Weights of the pairs of the first ``n`` channels, in ``pairs(n)`` order."""
+        index = {p: i for i, p in enumerate(pairs(self.channels))}
+        return self.weights[[index[p] for p in pairs(n)]]
+
+
+def coupling_weights(
+    co: np.ndarray,
+    cross: np.ndarray,
+    d_az_deg: np.ndarray,
+    d_el_deg: np.ndarray,
+    elevation_deg: float,
+    centre_deg: np.ndarray,
+    width_deg: float,
+    mode: str,
+    transmit_phase_deg: float,
+    channels: list[tuple[int, int]],
+) -> np.ndarray:
+    """Per channel pair and source, the coupling products integrated over each truth radial.
+
+    The two-way couplings a_k[c] of the channels (:func:`pasim_blocks.polarimetry.channel_rows`)
+    are multiplied pairwise, a_k[c] a_k'[c']*, integrated over elevation with cos(el) and over
+    each radial's azimuth extent, as :func:`azimuth_profile` and :func:`cell_solid_angles`
+    integrate the squared power pattern. Returns (pair, source, radial) complex (sr).
+    """
+    rows = channel_rows(co, cross, mode, transmit_phase_deg, channels)
+    n_ch, n_el, n_az = rows.shape[0], rows.shape[2], rows.shape[3]
+    cos_el = np.cos(np.deg2rad(elevation_deg + d_el_deg))
+    step = np.deg2rad(d_el_deg[1] - d_el_deg[0])
+    # Every Hermitian product at once: per azimuth offset, the elevation-weighted Gram matrix
+    # of the 2 n_ch coupling rows, summed in float64 (second-order cross-polar terms are
+    # 1e-8 of the co-polar ones at -40 dB).
+    x = np.empty((n_az, 2 * n_ch, n_el), np.complex128)
+    x[...] = rows.reshape(2 * n_ch, n_el, n_az).transpose(2, 0, 1)
+    weighted = x * (cos_el * step)
+    np.conjugate(x, out=x)
+    gram = (weighted @ x.transpose(0, 2, 1)).transpose(1, 2, 0)
+    plist = pairs(n_ch)
+    profile = np.empty((len(plist), 4, n_az), np.complex128)
+    for i, (k, q) in enumerate(plist):
+        for n, (c, c2) in enumerate(SOURCE_COMPONENTS):
+            profile[i, n] = gram[2 * k + c, 2 * q + c2]
+    flat = profile.reshape(-1, n_az)
+    both = cell_solid_angles(
+        np.concatenate([flat.real, flat.imag]), d_az_deg, centre_deg, width_deg
+    )
+    half = flat.shape[0]
+    return (both[:half] + 1j * both[half:]).reshape(len(plist), 4, centre_deg.size)
+
+
 class BeamDraw(NamedTuple):
     """What every drawing path needs for one beam: the truth cells, the radials near the beam
-    and their two-way weights, the range model, the beam's H and V random streams, and whether
-    V is wanted."""
+    and their two-way weights (``omega``: co-polar power patterns; ``coupling``: the complex
+    co- and cross-polar fields, None without them), the range model, the beam's H and V random
+    streams, the number of channels drawn (1: H only) and the transmission mode."""
 
     cells: TruthCells
     near: np.ndarray
@@ -479,6 +653,9 @@ class BeamDraw(NamedTuple):
     gen_h: np.random.Generator
     gen_v: np.random.Generator
     need_v: bool
+    coupling: Coupling | None
+    channels: int
+    mode: str
 
 
 class WeatherChannel(Block):
@@ -510,9 +687,24 @@ class WeatherChannel(Block):
     - ``monte_carlo``: per cell, ``drops_per_cell`` moving drops (paper eq. 5-12), each at a
       random place in the cell, spread over the gates likewise.
 
+    Polarisation (``transmission``): SHV transmits H and V every pulse, the V port with the
+    phase ``transmit_differential_phase_deg``; AHV alternates H (even pulses) and V (odd),
+    and both ports receive every pulse. When the pattern carries complex co- and cross-polar
+    fields (the arrays, ``antenna.measured``), each cell's received channels are v = M s with
+    the two-way coupling M of those fields (:mod:`pasim_blocks.polarimetry`): their
+    covariance, the integral over the cell's directions of M C_s M^H, is used at every level
+    (the expected correlations; the combined level's spectral matrix, 2 x 2 in SHV, 4 x 4 in
+    AHV for the stacked channels of both transmit states, each pulse keeping its state's
+    pair; the per-cell levels' Cholesky factor of each cell's channel covariance applied to
+    independent unit series of its spectrum). So cross-polarisation biases ZDR, rho_hv and
+    phi_DP as in a real radar. Without those fields (pencil and ideal antennas, or
+    ``cross_polar_coupling`` off) H and V are weighted by the squared co-polar power patterns
+    and their cross term by sqrt(Omega_H Omega_V) (exact for proportional patterns).
+
     Gates inside the blind range (one pulse length) are zero. Each beam draws from its own
     random streams (H and V apart). A truth without ZDR, RHOHV and PHIDP (single
-    polarisation), or a run that asks for none of them, skips the V channel.
+    polarisation), or a run that asks for none of them (nor, in AHV, for velocity or width),
+    skips the V channel.
     """
 
     truth = Input(TRUTH, doc="truth sweep")
@@ -560,6 +752,27 @@ class WeatherChannel(Block):
         choices=("float32", "float64"),
         doc="working precision of the random draws and sums",
     )
+    transmission = Param(
+        "shv",
+        type="str",
+        choices=MODES,
+        doc="polarisation of transmission: shv (H and V every pulse), ahv (H and V alternate, "
+        "H first)",
+    )
+    transmit_differential_phase_deg = Param(
+        0.0,
+        units="deg",
+        min=-360.0,
+        max=360.0,
+        doc="phase of the V port's excitation against the H port's in SHV (the system's "
+        "differential phase on transmit)",
+    )
+    cross_polar_coupling = Param(
+        True,
+        type="bool",
+        doc="couple H and V through the antenna's complex co- and cross-polar fields when the "
+        "pattern has them (false: co-polar power patterns only)",
+    )
 
     # Fastest first, most faithful last; ``pasim tradeoff`` runs them all. -40 dB keeps the
     # main lobe and first sidelobes of a -32 dB antenna and drops the far ones.
@@ -590,7 +803,15 @@ class WeatherChannel(Block):
         gate_m = float(truth.attrs["gate_width_m"])
         width_deg = float(truth.attrs["radial_width_deg"])
         az_truth = truth["azimuth"].values
-        need_v = all(k in truth for k in POLARIMETRIC_FIELDS) and chunk.wants(*POLARIMETRIC_FIELDS)
+        dual = all(k in truth for k in POLARIMETRIC_FIELDS)
+        mode, beta = self.p["transmission"], float(self.p["transmit_differential_phase_deg"])
+        # AHV estimates velocity from the H and V co-polar pulses together (processor).
+        need_v = dual and (
+            chunk.wants(*POLARIMETRIC_FIELDS) or (mode == "ahv" and chunk.wants("VRADH", "WRADH"))
+        )
+        coupled = bool(self.p["cross_polar_coupling"]) and all(
+            k in pattern for k in ("co_polar", "cross_polar")
+        )
 
         gain = 10 ** (pattern.attrs["gain_db"] / 10)
         k0 = (
@@ -632,6 +853,7 @@ class WeatherChannel(Block):
         # each channel's series stay contiguous for the draws and for the blocks downstream.
         iq = np.zeros((n_b, 2, n_g, 0 if method == "expected" else pulses), cdtype)
         corr = np.zeros((n_b, n_g, len(CORRELATION_PRODUCTS)), np.complex128)
+        drawn = 0 if method == "expected" else len(receive_channels(mode, beta, need_v))
         for i, beam in enumerate(chunk.beams):
             az_b = float(beams["azimuth"].values[i])
             el_b = float(beams["elevation"].values[i])
@@ -641,20 +863,56 @@ class WeatherChannel(Block):
             omega = cell_solid_angles(profile, d_az, delta[near], width_deg)
             keep = omega.max(axis=0) >= omega.max() * 10 ** (self.p["support_db"] / 10)
             near, omega = near[keep], omega[:, keep]
-            corr[i] = range_correlate(
-                self._expected(cells, near, omega, ranges.power.shape[0]),
-                ranges.power.T,
-                n_g,
-                exact=True,
+            coupling = None
+            if coupled:
+                # The expected correlations need both co-polar channels whatever is drawn.
+                chans = receive_channels(mode, beta, True)[: max(2, drawn)]
+                coupling = Coupling(
+                    len(chans),
+                    coupling_weights(
+                        pattern["co_polar"].values[i],
+                        pattern["cross_polar"].values[i],
+                        d_az,
+                        d_el,
+                        el_b,
+                        delta[near],
+                        width_deg,
+                        mode,
+                        beta,
+                        chans,
+                    ),
+                )
+            terms = ranges.power.shape[0]
+            expected = (
+                self._expected(cells, near, omega, terms)
+                if coupling is None
+                else self._expected_coupled(cells, near, coupling, terms)
             )
+            corr[i] = range_correlate(expected, ranges.power.T, n_g, exact=True)
+            if coupling is None and mode == "shv" and beta:
+                # The V port's echo carries the transmit differential phase.
+                corr[i] *= _beta_factors(beta)
             if method == "expected" or near.size == 0:
                 continue
             gen_h, gen_v = chunk.rng(int(beam)), chunk.rng(int(beam), 1)
-            draw = BeamDraw(cells, near, omega, ranges, gen_h, gen_v, need_v)
-            if method == "combined":
-                self._combined(iq[i], draw)
-                self._tones(iq[i], draw)
-            self._per_cell(iq[i], draw)
+            draw = BeamDraw(cells, near, omega, ranges, gen_h, gen_v, need_v, coupling, drawn, mode)
+            if coupling is None:
+                if method == "combined":
+                    self._combined(iq[i], draw)
+                    self._tones(iq[i], draw)
+                self._per_cell(iq[i], draw)
+                if mode == "shv" and beta:
+                    iq[i, 1] *= np.exp(1j * np.deg2rad(beta)).astype(cdtype)
+                elif mode == "ahv":
+                    # Without cross-polar fields a port receives nothing of the other
+                    # polarisation's pulses.
+                    iq[i, 0, :, 1::2] = 0
+                    iq[i, 1, :, 0::2] = 0
+            else:
+                if method == "combined":
+                    self._combined_coupled(iq[i], draw)
+                    self._tones_coupled(iq[i], draw)
+                self._per_cell_coupled(iq[i], draw)
 
         # The receiver is off while the pulse goes out: nothing is received inside the blind
         # range (the processor masks those gates and the scorer never scores them).
@@ -679,9 +937,12 @@ class WeatherChannel(Block):
             attrs={
                 "wavelength_m": lam,
                 "prt_s": prt,
-                "dual_polarization": int(all(k in truth for k in POLARIMETRIC_FIELDS)),
+                "dual_polarization": int(dual),
                 "blind_range_m": blind_m,
                 "calibration": str(pattern.attrs["calibration"]),
+                "transmission": mode,
+                "transmit_differential_phase_deg": beta,
+                "cross_polar_coupling": int(coupled),
             },
         )
         power = corr[..., :2].real.astype(np.float32)
@@ -694,7 +955,8 @@ class WeatherChannel(Block):
 
     @staticmethod
     def _expected(cells: TruthCells, near: np.ndarray, omega: np.ndarray, terms: int) -> Any:
-        """Expected correlations per padded truth gate, before range weighting: gate x term x 5.
+        """Expected correlations per padded truth gate, before range weighting: gate x term x
+        product (:data:`pasim_blocks.signals.CORRELATION_PRODUCTS`).
 
         Term n carries each cell's contribution times u^n (its normalised velocity), so the
         range response's power r_d(u) = Σ_n power[n, d] u^n weighs every cell at its own
@@ -710,6 +972,53 @@ class WeatherChannel(Block):
             out[:, n, 2] = omega[0] @ (cells.r1_h[near] * un)
             out[:, n, 3] = omega[1] @ (cells.r1_v[near] * un)
             out[:, n, 4] = sq @ (cells.cross[near] * un)
+        lag1, lag2 = cells.lags(near)
+        for n in range(terms):
+            un = u**n if n else 1.0
+            out[:, n, 5] = omega[0] @ (cells.s_h[near] * lag2 * un)
+            out[:, n, 6] = omega[1] @ (cells.s_v[near] * lag2 * un)
+            x1 = cells.cross[near] * lag1 * un
+            out[:, n, 7] = sq @ x1
+            out[:, n, 8] = sq @ (np.conj(cells.cross[near]) * lag1 * un)
+        return out
+
+    @staticmethod
+    def _expected_coupled(
+        cells: TruthCells, near: np.ndarray, coupling: Coupling, terms: int
+    ) -> Any:
+        """:meth:`_expected` through the coupling of the co-polar channels h and v.
+
+        Each cell's E[w_k w_k'*] is sum_n weights[k, k', n] src_n (:class:`Coupling`); a lag l
+        multiplies it by the cell's r(l): R_l(h) = sum P_hh r(l), R1_HV = E[h_m* v_m+1] =
+        sum conj(P_hv) r(1), R1_VH = E[v_m* h_m+1] = sum P_hv r(1).
+        """
+        w = coupling.select(2)  # pairs (h, h), (v, v), (h, v)
+        # conj(P_hv) = sum_n conj(w_hv[n]) conj(src_n): conjugation swaps sources Y and X.
+        w_hv_conj = np.conj(w[2][list(CONJUGATE_SOURCES)])
+        n_j, n_g = near.size, cells.s_h.shape[1]
+        # Only the gates some near radial has echo at.
+        gates = np.flatnonzero(cells.echo[near].any(axis=0))
+        src = np.empty((4, n_j, gates.size), np.complex128)  # source x radial x gate
+        for k, a in enumerate(cells.sources(near[:, None], gates[None, :])):
+            src[k] = a
+        lag1, lag2 = (lag[:, gates] for lag in cells.lags(near))
+        u = cells.u[near][:, gates]
+        # Products by lag: lag 0 -> R0_H, R0_V, R0_HV; lag 1 -> R1_H, R1_V, R1_HV, R1_VH; lag
+        # 2 -> R2_H, R2_V. One matrix product each over (source, radial).
+        plan = (
+            (None, np.stack([w[0], w[1], w_hv_conj]), (0, 1, 4)),
+            (lag1, np.stack([w[0], w[1], w_hv_conj, w[2]]), (2, 3, 7, 8)),
+            (lag2, np.stack([w[0], w[1]]), (5, 6)),
+        )
+        out = np.zeros((n_g, terms, len(CORRELATION_PRODUCTS)), np.complex128)
+        for n in range(terms):
+            s0 = src * u**n if n else src
+            for lag, weights, index in plan:
+                s = s0 if lag is None else s0 * lag
+                out[np.ix_(gates, [n], list(index))] = (
+                    weights.reshape(len(index), 4 * n_j) @ s.reshape(4 * n_j, gates.size)
+                ).T[:, None, :]
+        out[:, :, :2] = out[:, :, :2].real
         return out
 
     @staticmethod
@@ -719,7 +1028,7 @@ class WeatherChannel(Block):
         Each cell draws its independent range components, which the range model spreads over
         the gates it reaches (:class:`pasim_blocks.fasttime.GateSum`).
         """
-        cells, near, omega, ranges, gen_h, gen_v, need_v = beam
+        cells, near, omega, ranges, gen_h, gen_v, need_v = beam[:7]
         if cells.per_cell is None or cells.model is None:
             return
         # Cells ordered by gate, then radial, so that each gate's sum is one segment.
@@ -745,33 +1054,23 @@ class WeatherChannel(Block):
             out[k, lo : lo + volts.shape[0]] += volts
 
     @staticmethod
-    def _combined(out: np.ndarray, beam: BeamDraw) -> None:
-        """Add each gate's series drawn from its combined spectral matrix (circulant embedding).
+    def _gate_spectra(
+        beam: BeamDraw, products: list[np.ndarray], gsel: np.ndarray, n_g: int
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """Sum the cells' embedded spectra per output gate with real weights per product.
 
-        The spectra of the cells are summed per padded gate with the pattern weights (times
-        u^n, one set per term of the range power polynomial), then over the range response.
+        ``products`` are radial x gate weights (for the gates ``gsel`` that hold wide cells),
+        scaled to order one; each is summed per padded gate (times u^n, one set per term of
+        the range power polynomial), then over the range response. Returns the output gates
+        reached and their spectra (gate x product x N), or None.
         """
-        cells, near, omega, ranges, gen_h, gen_v, need_v = beam
-        n_g, pulses = out.shape[1], out.shape[2]
+        cells, near, ranges = beam.cells, beam.near, beam.ranges
         dtype = cells.dtype
         n = cells.spectra.shape[1]
         pad, terms = ranges.pad, ranges.power.shape[0]
-        wide = cells.wide[near]
-        gsel = np.flatnonzero(wide.any(axis=0))
-        if not gsel.size:
-            return
-        # Powers are scaled to order one, so float32 keeps 100 dB of dynamic range without
-        # subnormals; the scale goes back on the voltages at the end.
-        w_h = omega[0][:, None] * np.where(wide, cells.s_h[near], 0.0)
-        scale = float(w_h.max()) or 1.0
-        products = [w_h / scale]
-        if need_v:
-            products.append(omega[1][:, None] * np.where(wide, cells.s_v[near], 0.0) / scale)
-            x = np.sqrt(omega[0] * omega[1])[:, None] * np.where(wide, cells.cross[near], 0) / scale
-            products += [x.real, x.imag]
-        u = cells.u[near]
+        u = cells.u[near][:, gsel]
         stacked = [p * u**k if k else p for k in range(terms) for p in products]
-        weights = np.stack(stacked)[:, :, gsel].transpose(2, 0, 1).astype(dtype)  # g x TP x J
+        weights = np.stack(stacked).transpose(2, 0, 1).astype(dtype)  # g x TP x J
         code = cells.code[near][:, gsel].T  # g x J
         n_p = len(products)
         combined = np.zeros((n_g + 2 * pad, terms * n_p, n), dtype)
@@ -790,8 +1089,37 @@ class WeatherChannel(Block):
         ).reshape(hi - lo, n_p, n)
         gates = lo + np.flatnonzero(s[:, 0].max(axis=1) > 0)
         if not gates.size:
+            return None
+        return gates, s[gates - lo]
+
+    @staticmethod
+    def _combined(out: np.ndarray, beam: BeamDraw) -> None:
+        """Add each gate's series drawn from its combined spectral matrix (circulant embedding).
+
+        The spectra of the cells are summed per padded gate with the pattern weights (times
+        u^n, one set per term of the range power polynomial), then over the range response.
+        """
+        cells, near, omega, _, gen_h, gen_v, need_v = beam[:7]
+        n_g, pulses = out.shape[1], out.shape[2]
+        dtype = cells.dtype
+        n = cells.spectra.shape[1]
+        wide = cells.wide[near]
+        gsel = np.flatnonzero(wide.any(axis=0))
+        if not gsel.size:
             return
-        s = s[gates - lo]
+        # Powers are scaled to order one, so float32 keeps 100 dB of dynamic range without
+        # subnormals; the scale goes back on the voltages at the end.
+        w_h = omega[0][:, None] * np.where(wide, cells.s_h[near], 0.0)
+        scale = float(w_h.max()) or 1.0
+        products = [w_h / scale]
+        if need_v:
+            products.append(omega[1][:, None] * np.where(wide, cells.s_v[near], 0.0) / scale)
+            x = np.sqrt(omega[0] * omega[1])[:, None] * np.where(wide, cells.cross[near], 0) / scale
+            products += [x.real, x.imag]
+        summed = WeatherChannel._gate_spectra(beam, [p[:, gsel] for p in products], gsel, n_g)
+        if summed is None:
+            return
+        gates, s = summed
         # sqrt(N) ifft(.)[:M] has covariance c[m - n] (see embedded_spectra); sqrt(N) and the
         # power scale go on the factors before the FFT.
         s *= dtype(scale * n)
@@ -809,9 +1137,59 @@ class WeatherChannel(Block):
         out[1, gates] = scipy.fft.ifft(l21 * z1 + l22 * z2, axis=-1, overwrite_x=True)[:, :pulses]
 
     @staticmethod
+    def _combined_coupled(out: np.ndarray, beam: BeamDraw) -> None:
+        """:meth:`_combined` with the coupled channels: an n x n spectral matrix per bin.
+
+        SHV draws the two ports (2 x 2); AHV the stacked process of both transmit states,
+        co-polar and cross-polar channels (4 x 4), and each pulse keeps its state's pair.
+        """
+        cells, near = beam.cells, beam.near
+        n_ch, gen_h, gen_v = beam.channels, beam.gen_h, beam.gen_v
+        n_g, pulses = out.shape[1], out.shape[2]
+        dtype = cells.dtype
+        n = cells.spectra.shape[1]
+        wide = cells.wide[near]
+        gsel = np.flatnonzero(wide.any(axis=0))
+        if not gsel.size:
+            return
+        src = [np.where(wide[:, gsel], a[:, gsel], 0) for a in cells.sources(near)]
+        cov = cell_covariance(beam.coupling.select(n_ch)[..., None], src)  # pair x J x g
+        scale = float(cov[0].real.max()) or 1.0
+        plist = pairs(n_ch)
+        products = []
+        for p, (k, q) in enumerate(plist):
+            products += [cov[p].real / scale] + ([cov[p].imag / scale] if k != q else [])
+        summed = WeatherChannel._gate_spectra(beam, products, gsel, n_g)
+        if summed is None:
+            return
+        gates, s = summed
+        s *= dtype(scale * n)
+        spectra = np.empty((len(plist), *s[:, 0].shape), np.result_type(dtype, np.complex64))
+        i = 0
+        for p, (k, q) in enumerate(plist):
+            spectra[p] = s[:, i] if k == q else s[:, i] + 1j * s[:, i + 1]
+            i += 1 if k == q else 2
+        factor = cholesky(spectra, n_ch, FLOOR[dtype])
+        z = [_complex_normal(gen_h if k == 0 else gen_v, s[:, 0].shape, dtype) for k in range(n_ch)]
+        series = [
+            scipy.fft.ifft(
+                sum(factor[k, i] * z[i] for i in range(k + 1)), axis=-1, overwrite_x=True
+            )[:, :pulses]
+            for k in range(n_ch)
+        ]
+        # This level runs first on a zeroed beam: assign, the other paths add.
+        for q, (even, odd) in enumerate(port_channels(beam.mode)[: 2 if n_ch > 1 else 1]):
+            if even == odd:
+                out[q, gates] = series[even]
+                continue
+            for parity, k in ((0, even), (1, odd)):
+                if k < n_ch:
+                    out[q, gates, parity::2] = series[k][:, parity::2]
+
+    @staticmethod
     def _tones(out: np.ndarray, beam: BeamDraw) -> None:
         """Add the zero-width cells: one random tone per output gate and velocity (exact)."""
-        cells, near, omega, ranges, gen_h, gen_v, need_v = beam
+        cells, near, omega, ranges, gen_h, gen_v, need_v = beam[:7]
         jj, gg = np.nonzero(cells.tone[near])
         if not jj.size:
             return
@@ -845,6 +1223,97 @@ class WeatherChannel(Block):
             l22 = np.sqrt(np.maximum(tot[1] - np.abs(l21) ** 2, 0))
             a_v = l21 * z1 + l22 * _complex_normal(gen_v, (uniq.size,), np.float64)
             out[1, gates] += np.add.reduceat(a_v[:, None] * cells.tones[c_u], starts, axis=0)
+
+    @staticmethod
+    def _tones_coupled(out: np.ndarray, beam: BeamDraw) -> None:
+        """:meth:`_tones` with the coupled channels (n x n factor per gate and velocity)."""
+        cells, near, ranges = beam.cells, beam.near, beam.ranges
+        n_ch = beam.channels
+        jj, gg = np.nonzero(cells.tone[near])
+        if not jj.size:
+            return
+        n_g, pad = out.shape[1], ranges.pad
+        rows = near[jj]
+        code = cells.tone_code[rows, gg]
+        cov = cell_covariance(beam.coupling.select(n_ch)[:, :, jj], cells.sources(rows, gg))
+        plist = pairs(n_ch)
+        w: list[np.ndarray] = []
+        for p, (k, q) in enumerate(plist):
+            w += [cov[p].real] + ([cov[p].imag] if k != q else [])
+        offsets = ranges.offsets
+        gate = (gg[None, :] - pad - offsets[:, None]).ravel()
+        keys = np.tile(code, offsets.size)
+        r = ranges.weights(cells.u[rows, gg]).T.ravel()  # offset-major, like gate
+        ok = (gate >= 0) & (gate < n_g) & (r > 0)
+        n_codes = cells.tone_velocities.size
+        uniq, inv = np.unique((gate * n_codes + keys)[ok], return_inverse=True)
+        tot = [np.bincount(inv, weights=(r * np.tile(c, offsets.size))[ok]) for c in w]
+        totals = np.empty((len(plist), uniq.size), np.complex128)
+        i = 0
+        for p, (k, q) in enumerate(plist):
+            totals[p] = tot[i] if k == q else tot[i] + 1j * tot[i + 1]
+            i += 1 if k == q else 2
+        factor = cholesky(totals, n_ch, FLOOR[np.float64])
+        z = [_complex_normal(beam.gen_h if k == 0 else beam.gen_v, (uniq.size,), np.float64)]
+        z += [_complex_normal(beam.gen_v, (uniq.size,), np.float64) for _ in range(1, n_ch)]
+        amplitude = [sum(factor[k, i] * z[i] for i in range(k + 1)) for k in range(n_ch)]
+        g_u, c_u = uniq // n_codes, uniq % n_codes
+        starts = np.flatnonzero(np.diff(g_u, prepend=-1))
+        gates = g_u[starts]
+        tones = cells.tones[c_u]
+        for q, (even, odd) in enumerate(port_channels(beam.mode)[: 2 if n_ch > 1 else 1]):
+            for parity, k in ((slice(None), even),) if even == odd else ((0, even), (1, odd)):
+                if k >= n_ch:
+                    continue
+                step = parity if isinstance(parity, slice) else slice(parity, None, 2)
+                out[q, gates, step] += np.add.reduceat(
+                    amplitude[k][:, None] * tones[:, step], starts, axis=0
+                )
+
+    @staticmethod
+    def _per_cell_coupled(out: np.ndarray, beam: BeamDraw) -> None:
+        """:meth:`_per_cell` with the coupled channels.
+
+        Each cell's channel covariance (2 x 2 SHV, 4 x 4 AHV) is factored, L L^H = P, and
+        applied to independent unit-power series of the cell's Doppler spectrum
+        (:meth:`CellModel.units`): exact in distribution, since the cell's channel covariance
+        does not depend on the lag. A port's series is its channel's on the pulses of that
+        channel's transmit state.
+        """
+        cells, near, ranges = beam.cells, beam.near, beam.ranges
+        if cells.per_cell is None or cells.model is None:
+            return
+        gg, jj = np.nonzero(cells.per_cell[near].T)
+        if not gg.size:
+            return
+        n_ch = beam.channels
+        n_g, pulses = out.shape[1], out.shape[2]
+        rows = near[jj]
+        u = cells.u[rows, gg]
+        cov = cell_covariance(beam.coupling.select(n_ch)[:, :, jj], cells.sources(rows, gg))
+        factor = cholesky(cov, n_ch, FLOOR[np.float64]).astype(out.dtype)
+        ports = port_channels(beam.mode)[: 2 if n_ch > 1 else 1]
+        sums = [GateSum(ranges, int(gg[0]), int(gg[-1]), n_g, pulses, out.dtype) for _ in ports]
+        batch = max(1, 2_000_000 // (ranges.components * pulses * max(1, n_ch // 2)))
+        for a in range(0, gg.size, batch):
+            c = slice(a, min(gg.size, a + batch))
+            z = cells.model.units(rows[c], gg[c], beam.gen_h, beam.gen_v, n_ch, ranges.basis)
+            for acc, (even, odd) in zip(sums, ports, strict=True):
+                if even == odd:
+                    terms = [(z[i], factor[even, i, c]) for i in range(even + 1)]
+                else:
+                    # Each pulse's mix of the unit series is its transmit state's channel.
+                    mix = np.zeros_like(z[0])
+                    for parity, k in ((0, even), (1, odd)):
+                        for i in range(k + 1 if k < n_ch else 0):
+                            mix[..., parity::2] += (
+                                factor[k, i, c][:, None, None] * z[i][..., parity::2]
+                            )
+                    terms = [(mix, np.ones(mix.shape[0], out.dtype))]
+                acc.add([t for t in terms if t[1].any()], u[c], gg[c])
+        for k, acc in enumerate(sums):
+            lo, volts = acc.voltages()
+            out[k, lo : lo + volts.shape[0]] += volts
 
 
 def _largest_speed(truth: xr.Dataset) -> float:
@@ -882,6 +1351,13 @@ def _check_coverage(
             f"the beam at {b:.1f} deg has a pattern support of +-{support_deg:g} deg; widen the "
             "truth's margin_deg (or read the whole sweep)"
         )
+
+
+def _beta_factors(beta_deg: float) -> np.ndarray:
+    """Factors on the correlation products when the V port's echo is multiplied by e^(j beta)."""
+    t = np.exp(1j * np.deg2rad(beta_deg))
+    factors = {"R0_HV": t, "R1_HV": t, "R1_VH": np.conj(t)}
+    return np.array([factors.get(k, 1.0) for k in CORRELATION_PRODUCTS])
 
 
 def _phasor(phase: np.ndarray) -> np.ndarray:

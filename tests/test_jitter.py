@@ -44,10 +44,13 @@ def test_moments_against_monte_carlo(n: int, c: float) -> None:
         assert abs(np.mean(sample) - value) < 4 * err + 1e-12
 
 
-def steady_echo(beams=2, gates=3, pulses=4096):
+def steady_echo(beams=2, gates=3, pulses=4096, transmission="shv"):
+    import xarray as xr
+
     iq = np.ones((beams, gates, pulses, 2), np.complex64)
     corr = np.ones((beams, gates, len(CORRELATION_PRODUCTS)), np.complex128)
-    return {"iq_in": iq, "echo_correlations_in": corr}
+    calibration = xr.Dataset(attrs={"transmission": transmission})
+    return {"iq_in": iq, "echo_correlations_in": corr, "calibration": calibration}
 
 
 @pytest.mark.parametrize("n", [1, 16, 256])
@@ -73,25 +76,39 @@ def test_coherency_loss_and_averaging(n: int) -> None:
 
 
 def test_expected_level_scales_the_correlations() -> None:
-    """No pulses: lag 0 by E|G|^2, lag 1 by |E G|^2, the H-V term by E[G_H* G_V]; the I/Q
-    cube passes through untouched."""
+    """No pulses: lag 0 by E|G|^2, every product of two different pulses (lags 1 and 2, the
+    lag-1 H-V products of AHV) by |E G|^2, the lag-0 H-V term by E[G_H* G_V]; the I/Q cube
+    passes through untouched."""
     block = TransmitterJitter(
         name="jitter", amplitude_jitter_db=1.0, phase_jitter_deg=20.0, transmitters=3
     )
     inputs = steady_echo(pulses=0)
     out = block.process(inputs, Chunk(beams=np.arange(2), block_name="jitter"))
     m = jitter_moments(1.0, 20.0, 3, 0.0)
-    expected = {
-        "R0_H": m["power"],
-        "R0_V": m["power"],
-        "R1_H": abs(m["mean"]) ** 2,
-        "R1_V": abs(m["mean"]) ** 2,
-        "R0_HV": m["cross"],
-    }
+    lagged = abs(m["mean"]) ** 2  # two different pulses
+    expected = {"R0_H": m["power"], "R0_V": m["power"], "R0_HV": m["cross"]}
+    expected |= dict.fromkeys(("R1_H", "R1_V", "R2_H", "R2_V", "R1_HV", "R1_VH"), lagged)
     for i, name in enumerate(CORRELATION_PRODUCTS):
         np.testing.assert_allclose(out["echo_correlations"][..., i], expected[name])
     assert out["iq"].shape[2] == 0
     assert expected["R1_H"] < 0.97 * expected["R0_H"].real  # coherency is lost
+
+
+def test_alternate_transmission_has_one_transmitter_per_pulse() -> None:
+    """AHV: pulse m is transmitted by the H amplifiers (m even) or the V ones (m odd), and both
+    ports receive its echo, so both ports carry that pulse's gain: against the SHV gains drawn
+    from the same stream, the H port's even pulses and the V port's odd ones are unchanged,
+    the other ports take the transmitting port's gain."""
+    block = TransmitterJitter(
+        name="jitter", amplitude_jitter_db=0.5, phase_jitter_deg=5.0, transmitters=2
+    )
+    chunk = Chunk(beams=np.arange(2), seed=4, block_name="jitter")
+    shv = block.process(steady_echo(pulses=64), chunk)["iq"]
+    ahv = block.process(steady_echo(pulses=64, transmission="ahv"), chunk)["iq"]
+    np.testing.assert_array_equal(ahv[..., 0], ahv[..., 1])
+    np.testing.assert_array_equal(ahv[:, :, 0::2, 0], shv[:, :, 0::2, 0])
+    np.testing.assert_array_equal(ahv[:, :, 1::2, 1], shv[:, :, 1::2, 1])
+    assert not np.allclose(shv[..., 0], shv[..., 1])
 
 
 def test_beams_draw_their_own_streams() -> None:
@@ -109,10 +126,11 @@ def test_beams_draw_their_own_streams() -> None:
     np.testing.assert_array_equal(whole, np.concatenate(parts))
 
 
-def test_graph_with_jitter_runs_at_the_expected_level() -> None:
+@pytest.mark.parametrize("transmission", ["shv", "ahv"])
+def test_graph_with_jitter_runs_at_the_expected_level(transmission: str) -> None:
     """The block between the weather channel and the receiver and processor of the uniform
-    scene's graph: it validates and runs at the expected level, where the jitter shows as a
-    wider spectrum (WRADH up) and DBZH moves by 10 log10 E|G|^2 exactly."""
+    scene's graph, in SHV and AHV: it validates and runs at the expected level, where the
+    jitter shows as a wider spectrum (WRADH up) and DBZH moves by 10 log10 E|G|^2 exactly."""
     from pasim_graph.graphfile import BlockSpec, ConnectionSpec, Endpoint, read
 
     from .conftest import GRAPHS
@@ -132,13 +150,21 @@ def test_graph_with_jitter_runs_at_the_expected_level() -> None:
         ConnectionSpec(
             Endpoint("jitter", "echo_correlations"), Endpoint("ppp", "echo_correlations")
         ),
+        ConnectionSpec(Endpoint("weather", "calibration"), Endpoint("jitter", "calibration")),
     ]
     from pasim_graph.executor import LocalExecutor
     from pasim_graph.graph import validate
 
     out = {}
     for name, graph_spec in (("jitter", spec), ("plain", read(GRAPHS / "uniform_ideal.yaml"))):
-        graph = validate(graph_spec, {"scan.azimuth_stop_deg": 3.0, "weather.method": "expected"})
+        graph = validate(
+            graph_spec,
+            {
+                "scan.azimuth_stop_deg": 3.0,
+                "weather.method": "expected",
+                "weather.transmission": transmission,
+            },
+        )
         out[name] = LocalExecutor(graph).run()
     m = jitter_moments(0.5, 10.0, 1, 0.0)
     dbz = (out["jitter"]["DBZH"] - out["plain"]["DBZH"]).values
