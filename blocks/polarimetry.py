@@ -128,7 +128,7 @@ SOURCE_COMPONENTS = ((0, 0), (1, 1), (0, 1), (1, 0))
 CONJUGATE_SOURCES = (0, 1, 3, 2)
 
 
-def receive_channels(mode: str, transmit_phase_deg: float, need_v: bool) -> list[tuple[int, int]]:
+def receive_channels(mode: str, need_v: bool) -> list[tuple[int, int]]:
     """The received channels a weather channel draws, as (transmit state, port) pairs.
 
     SHV has one transmit state and two channels (the H and V ports). AHV has two states (H

@@ -84,8 +84,8 @@ def alternate_moments(
     - rho_hv (|R_a| + |R_b|) / (2 sqrt(S_h S_v) rho(T)), rho(T) = rho(2T)^(1/4) with rho(2T) =
       |R(2T)| / (S_h + S_v) (the Gaussian spectrum's lag-1 coherency from its lag 2);
     - phi_DP arg(R_a R_b*) / 2: the Doppler phase cancels; phi_DP comes modulo 180 deg, in
-      [0, 180) (a Doppler shift of a whole SHV Nyquist interval changes phi_DP by 180 deg and
-      leaves the alternate pulses the same).
+      [0, 180) (phi_DP + 180 deg with a velocity shift of lambda / (4T), one SHV Nyquist
+      velocity and the width of the AHV interval, gives the same alternate pulses).
 
     Returns what the correlations allow of, as :func:`moments_from_correlations` does.
     """
@@ -289,8 +289,9 @@ class PulsePairProcessor(Block):
             else:
                 if iq.shape[2] < 4:
                     raise ValueError(
-                        f"alternate transmission needs at least 4 pulses per dwell (2 of each "
-                        f"polarisation for the lag 2), got {iq.shape[2]}"
+                        f"alternate transmission (the weather channel's transmission 'ahv') "
+                        f"needs at least 4 pulses per dwell (2 of each polarisation for the "
+                        f"lag 2), got {iq.shape[2]}: raise the scan's 'pulses'"
                     )
                 corr = alternate_correlations(
                     iq[..., 0], iq[..., 1] if use_v else None, doppler or dual, dual

@@ -223,7 +223,8 @@ SIGNAL_POWER = PortType("signal_power", "float32", ("beam", "range", "polarizati
 #: CORRELATION_PRODUCTS: of the co-polar H and V series h, v (the H and V ports in SHV; in AHV
 #: the H port on H-transmit pulses and the V port on V-transmit pulses, as if every pulse were
 #: one), lags 0, 1 and 2 of each, E[h* v] at lag 0, and E[h_m* v_m+1], E[v_m* h_m+1] at lag 1
-#: (one pulse apart).
+#: (one pulse apart). Lag 2 and the lag-1 H-V products serve the AHV estimators only; under
+#: SHV they are NaN (not computed).
 ECHO_CORRELATIONS = PortType(
     "echo_correlations", "complex128", ("beam", "range", "correlation"), "W"
 )
@@ -326,6 +327,8 @@ CORRELATION_PRODUCTS = (
     "R1_HV",
     "R1_VH",
 )
+#: The products an SHV processor uses (the first of CORRELATION_PRODUCTS).
+SHV_PRODUCTS = CORRELATION_PRODUCTS[:5]
 #: The moments a pulse-pair processor estimates, CfRadial names.
 MOMENT_FIELDS = ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH")
 POLARIMETRIC_FIELDS = ("ZDR", "RHOHV", "PHIDP")

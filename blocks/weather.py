@@ -34,6 +34,7 @@ from .signals import (
     POLARIMETRIC_FIELDS,
     POLARIZATIONS,
     RANGE_RESPONSE,
+    SHV_PRODUCTS,
     SIGNAL_POWER,
     SPEED_OF_LIGHT,
     TRUTH,
@@ -475,6 +476,14 @@ class TruthCells:
         # Per-cell expected lag-1 and H-V correlations, before pattern and range weighting;
         # computed on echo cells only (the others are zero).
         e = self.echo
+        # r(1), r(2) of every cell, computed once: the cells are shared by every chunk and
+        # thread of a run, so nothing here may be filled lazily.
+        self._lags = np.stack(
+            [
+                np.exp(-8.0 * (a * width) ** 2) * _phasor(-4 * a * field["VRADH"]),
+                np.exp(-32.0 * (a * width) ** 2) * _phasor(-8 * a * field["VRADH"]),
+            ]
+        )
         lag1 = np.exp(-8.0 * (a * width[e]) ** 2) * _phasor(-4 * a * field["VRADH"][e])
         self.r1_h = np.zeros(e.shape, np.complex128)
         self.r1_v = np.zeros(e.shape, np.complex128)
@@ -485,9 +494,6 @@ class TruthCells:
             np.sqrt(self.s_h[e] * self.s_v[e]) * rho[e] * _phasor(np.deg2rad(field["PHIDP"][e]))
         )
         self.u = ranges.normalised_velocity(field["VRADH"])
-        self.width, self.velocity, self.lag_scale = width, field["VRADH"], a
-        self._lags: np.ndarray | None = None
-        self._lags_done = np.zeros(0, bool)
         self.pulses = pulses
         self.dtype = dtype
         # The per-cell draws of every level but `expected`: all echo cells for covariance and
@@ -510,20 +516,7 @@ class TruthCells:
             self._spectra(field["VRADH"], width, prt_s, wavelength_m)
 
     def lags(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Normalised lag-1 and lag-2 correlations r(1), r(2) of the cells of radials ``rows``.
-
-        Computed once per radial, on first use (each radial serves the few dozen beams that
-        see it).
-        """
-        if self._lags is None:
-            self._lags = np.zeros((2, *self.echo.shape), np.complex128)
-            self._lags_done = np.zeros(self.echo.shape[0], bool)
-        todo = np.unique(np.asarray(rows)[~self._lags_done[rows]])
-        if todo.size:
-            a, w, v = self.lag_scale, self.width[todo], self.velocity[todo]
-            self._lags[0, todo] = np.exp(-8.0 * (a * w) ** 2) * _phasor(-4 * a * v)
-            self._lags[1, todo] = np.exp(-32.0 * (a * w) ** 2) * _phasor(-8 * a * v)
-            self._lags_done[todo] = True
+        """Normalised lag-1 and lag-2 correlations r(1), r(2) of the cells of radials ``rows``."""
         return self._lags[0, rows], self._lags[1, rows]
 
     def sources(self, rows: np.ndarray, gates: Any = slice(None)) -> tuple[np.ndarray, ...]:
@@ -853,7 +846,7 @@ class WeatherChannel(Block):
         # each channel's series stay contiguous for the draws and for the blocks downstream.
         iq = np.zeros((n_b, 2, n_g, 0 if method == "expected" else pulses), cdtype)
         corr = np.zeros((n_b, n_g, len(CORRELATION_PRODUCTS)), np.complex128)
-        drawn = 0 if method == "expected" else len(receive_channels(mode, beta, need_v))
+        drawn = 0 if method == "expected" else len(receive_channels(mode, need_v))
         for i, beam in enumerate(chunk.beams):
             az_b = float(beams["azimuth"].values[i])
             el_b = float(beams["elevation"].values[i])
@@ -866,7 +859,7 @@ class WeatherChannel(Block):
             coupling = None
             if coupled:
                 # The expected correlations need both co-polar channels whatever is drawn.
-                chans = receive_channels(mode, beta, True)[: max(2, drawn)]
+                chans = receive_channels(mode, True)[: max(2, drawn)]
                 coupling = Coupling(
                     len(chans),
                     coupling_weights(
@@ -883,12 +876,15 @@ class WeatherChannel(Block):
                     ),
                 )
             terms = ranges.power.shape[0]
+            alternate = mode == "ahv"
             expected = (
-                self._expected(cells, near, omega, terms)
+                self._expected(cells, near, omega, terms, alternate)
                 if coupling is None
-                else self._expected_coupled(cells, near, coupling, terms)
+                else self._expected_coupled(cells, near, coupling, terms, alternate)
             )
             corr[i] = range_correlate(expected, ranges.power.T, n_g, exact=True)
+            if not alternate:
+                corr[i, :, len(SHV_PRODUCTS) :] = np.nan
             if coupling is None and mode == "shv" and beta:
                 # The V port's echo carries the transmit differential phase.
                 corr[i] *= _beta_factors(beta)
@@ -954,9 +950,12 @@ class WeatherChannel(Block):
         }
 
     @staticmethod
-    def _expected(cells: TruthCells, near: np.ndarray, omega: np.ndarray, terms: int) -> Any:
+    def _expected(
+        cells: TruthCells, near: np.ndarray, omega: np.ndarray, terms: int, alternate: bool
+    ) -> Any:
         """Expected correlations per padded truth gate, before range weighting: gate x term x
-        product (:data:`pasim_blocks.signals.CORRELATION_PRODUCTS`).
+        product (:data:`pasim_blocks.signals.CORRELATION_PRODUCTS`; the lag-2 and lag-1 H-V
+        products only if ``alternate``, AHV, whose processor alone reads them).
 
         Term n carries each cell's contribution times u^n (its normalised velocity), so the
         range response's power r_d(u) = Σ_n power[n, d] u^n weighs every cell at its own
@@ -972,6 +971,9 @@ class WeatherChannel(Block):
             out[:, n, 2] = omega[0] @ (cells.r1_h[near] * un)
             out[:, n, 3] = omega[1] @ (cells.r1_v[near] * un)
             out[:, n, 4] = sq @ (cells.cross[near] * un)
+        out[:, :, len(SHV_PRODUCTS) :] = 0.0
+        if not alternate:
+            return out
         lag1, lag2 = cells.lags(near)
         for n in range(terms):
             un = u**n if n else 1.0
@@ -984,7 +986,7 @@ class WeatherChannel(Block):
 
     @staticmethod
     def _expected_coupled(
-        cells: TruthCells, near: np.ndarray, coupling: Coupling, terms: int
+        cells: TruthCells, near: np.ndarray, coupling: Coupling, terms: int, alternate: bool
     ) -> Any:
         """:meth:`_expected` through the coupling of the co-polar channels h and v.
 
@@ -1010,6 +1012,8 @@ class WeatherChannel(Block):
             (lag1, np.stack([w[0], w[1], w_hv_conj, w[2]]), (2, 3, 7, 8)),
             (lag2, np.stack([w[0], w[1]]), (5, 6)),
         )
+        if not alternate:
+            plan = (plan[0], (lag1, np.stack([w[0], w[1]]), (2, 3)))
         out = np.zeros((n_g, terms, len(CORRELATION_PRODUCTS)), np.complex128)
         for n in range(terms):
             s0 = src * u**n if n else src
@@ -1254,7 +1258,7 @@ class WeatherChannel(Block):
             totals[p] = tot[i] if k == q else tot[i] + 1j * tot[i + 1]
             i += 1 if k == q else 2
         factor = cholesky(totals, n_ch, FLOOR[np.float64])
-        z = [_complex_normal(beam.gen_h if k == 0 else beam.gen_v, (uniq.size,), np.float64)]
+        z = [_complex_normal(beam.gen_h, (uniq.size,), np.float64)]
         z += [_complex_normal(beam.gen_v, (uniq.size,), np.float64) for _ in range(1, n_ch)]
         amplitude = [sum(factor[k, i] * z[i] for i in range(k + 1)) for k in range(n_ch)]
         g_u, c_u = uniq // n_codes, uniq % n_codes
