@@ -278,8 +278,22 @@ class CellModel:
         """The H and V series as (series, factor per cell) terms: h = Σ factor x series."""
         if self.method == "monte_carlo":
             return self._drops(rows, gates, gen_h, gen_v, need_v, basis)
-        n, r, pulses = rows.size, basis.shape[0], self.pulses
-        m = np.arange(pulses)[None, :]
+        series = self._series(rows, gates, basis.shape[0])
+        x1 = series(gen_h)
+        ones = np.ones(rows.size, self.cdtype)
+        if not need_v:
+            return [(x1, ones)], []
+        x2 = series(gen_v)
+        rho = self.rho[rows, gates]
+        phase = self.phase_dp[rows, gates]
+        # v = [rho x1 + sqrt(1 - rho^2) x2] exp(j phi_DP), as factors on x1 and x2.
+        return [(x1, ones)], [(x1, rho * phase), (x2, np.sqrt(1 - rho**2) * phase)]
+
+    def _series(self, rows: np.ndarray, gates: np.ndarray, components: int) -> Any:
+        """A drawer of unit-power series (cell x component x pulse) with the cells' Doppler
+        spectrum: coloured white sequences from a given generator, shifted to each cell's
+        velocity."""
+        n, m = rows.size, np.arange(self.pulses)[None, :]
         # sqrt(1/2): the white sequences have unit variance per real component.
         doppler = (
             np.exp(
@@ -288,16 +302,12 @@ class CellModel:
             )
             * np.sqrt(0.5)
         ).astype(self.cdtype)[:, None, :]
-        codes = np.repeat(self.factors.code[rows, gates], r)
-        x1 = self._complex(self.factors.colour(codes, gen_h), n, r) * doppler
-        ones = np.ones(n, self.cdtype)
-        if not need_v:
-            return [(x1, ones)], []
-        x2 = self._complex(self.factors.colour(codes, gen_v), n, r) * doppler
-        rho = self.rho[rows, gates]
-        phase = self.phase_dp[rows, gates]
-        # v = [rho x1 + sqrt(1 - rho^2) x2] exp(j phi_DP), as factors on x1 and x2.
-        return [(x1, ones)], [(x1, rho * phase), (x2, np.sqrt(1 - rho**2) * phase)]
+        codes = np.repeat(self.factors.code[rows, gates], components)
+
+        def series(gen: np.random.Generator) -> np.ndarray:
+            return self._complex(self.factors.colour(codes, gen), n, components) * doppler
+
+        return series
 
     def units(
         self,
@@ -320,20 +330,8 @@ class CellModel:
         """
         if self.method == "monte_carlo":
             return self._drop_units(rows, gates, gen_h, gen_v, count, basis)
-        n, r, pulses = rows.size, basis.shape[0], self.pulses
-        m = np.arange(pulses)[None, :]
-        doppler = (
-            np.exp(
-                (-4j * np.pi * self.prt_s / self.wavelength_m)
-                * (self.field["VRADH"][rows, gates][:, None] * m)
-            )
-            * np.sqrt(0.5)
-        ).astype(self.cdtype)[:, None, :]
-        codes = np.repeat(self.factors.code[rows, gates], r)
-        return [
-            self._complex(self.factors.colour(codes, gen_h if k == 0 else gen_v), n, r) * doppler
-            for k in range(count)
-        ]
+        series = self._series(rows, gates, basis.shape[0])
+        return [series(gen_h if k == 0 else gen_v) for k in range(count)]
 
     def _drop_units(
         self,
