@@ -20,7 +20,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from pasim_blocks.antenna import PlanarPatchArray
-from pasim_blocks.polarimetry import coupling, port_fields, uniform_medium
+from pasim_blocks.polarimetry import (
+    channel_rows,
+    coupling,
+    port_fields,
+    receive_channels,
+    transmissions,
+    uniform_medium,
+)
 
 MEDIA = [(2.0, 0.98, 30.0), (4.0, 0.95, 100.0), (-1.0, 0.99, -60.0)]
 
@@ -143,3 +150,21 @@ def test_shv_phidp_and_rhohv_coupling() -> None:
     assert deviations[-25.0][0] / deviations[-35.0][0] == pytest.approx(np.sqrt(10), rel=0.1)
     assert abs(deviations[-25.0][1]) < abs(deviations[-25.0][0]) / 10
     assert deviations[-25.0][1] / deviations[-35.0][1] == pytest.approx(10, rel=0.05)
+
+
+@pytest.mark.parametrize("mode", ["shv", "ahv"])
+def test_channel_rows_are_the_coupling_of_each_channel(mode: str) -> None:
+    """The weather channel's per-channel two-way couplings (complex64, written in place) equal
+    M = F_qc (F_Hc t_H + F_Vc t_V) of :func:`coupling` from :func:`port_fields`, row by row:
+    channel (state, port) is row ``port`` of the coupling of transmit state ``state``."""
+    gen = np.random.default_rng(7)
+    shape = (2, 5, 6)
+    co = (gen.normal(size=shape) + 1j * gen.normal(size=shape)).astype(np.complex64)
+    cross = 0.1 * (gen.normal(size=shape) + 1j * gen.normal(size=shape)).astype(np.complex64)
+    channels = receive_channels(mode, True)
+    rows = channel_rows(co, cross, mode, 35.0, channels)
+    fields = port_fields(co, cross)
+    states = [coupling(fields, t) for t in transmissions(mode, 35.0)]
+    assert rows.dtype == np.complex64
+    for k, (state, port) in enumerate(channels):
+        np.testing.assert_allclose(rows[k], states[state][port], rtol=2e-6, atol=1e-6)
