@@ -266,6 +266,72 @@ def plot_calibration(runs: Path, out: Path) -> dict:
     return table
 
 
+def plot_crosspol(out: Path) -> dict:
+    """ZDR bias against the element leakage through the weather channel and the processor
+    (the uniform medium of tests/test_crosspol.py), SHV at its worst transmit phase and AHV,
+    with the exact bias of the coincident-pattern model and Zrnic et al.'s first order."""
+    import sys
+
+    import matplotlib.pyplot as plt
+
+    sys.path.insert(0, str(ROOT))
+    from tests.test_crosspol import (
+        PHIDP_DEG,
+        RHO,
+        ZDR_DB,
+        ahv_bias_db,
+        leaky_array,
+        moments,
+        scene,
+        with_antenna,
+        worst_beta,
+    )
+    from tests.test_polarimetry import closed_form_bias_db, first_order_bias_db
+
+    levels = np.arange(-45.0, -19.0, 2.5)  # the first-order formula fails beyond -20 dB
+    inputs = scene()
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), sharey=True)
+    results = {}
+    for ax, phase in zip(axes, (0.0, 90.0), strict=True):
+        rows = []
+        for level in levels:
+            x = 10 ** (level / 20) * np.exp(1j * np.deg2rad(phase))
+            beta = worst_beta(x)
+            leaky = with_antenna(inputs, leaky_array(level, phase))
+            shv = float(moments(leaky, transmit_differential_phase_deg=beta)["ZDR"].mean())
+            ahv = float(moments(leaky, transmission="ahv")["ZDR"].mean())
+            args = (x, beta, ZDR_DB, RHO, PHIDP_DEG)
+            rows.append(
+                {
+                    "level_db": float(level),
+                    "beta_deg": beta,
+                    "shv": shv - ZDR_DB,
+                    "shv_exact": closed_form_bias_db(*args),
+                    "shv_first_order": first_order_bias_db(*args),
+                    "ahv": ahv - ZDR_DB,
+                    "ahv_second_order": ahv_bias_db(x, order=2),
+                }
+            )
+        col = {k: np.array([r[k] for r in rows]) for k in rows[0]}
+        ax.semilogy(levels, abs(col["shv_exact"]), "C0-", label="SHV, exact (model)")
+        ax.semilogy(
+            levels, abs(col["shv_first_order"]), "C0--", label="SHV, first order (Zrnic 2010)"
+        )
+        ax.semilogy(levels, abs(col["shv"]), "C0o", ms=4, label="SHV, weather channel")
+        ax.semilogy(levels, abs(col["ahv_second_order"]), "C1-", label="AHV, second order")
+        ax.semilogy(levels, abs(col["ahv"]), "C1s", ms=4, label="AHV, weather channel")
+        ax.set_title(f"leakage phase {phase:.0f} deg (SHV at its worst transmit phase)", fontsize=9)
+        ax.set_xlabel("element cross-polar level (dB)")
+        ax.grid(alpha=0.3, which="both")
+        results[f"phase_{phase:.0f}"] = rows
+    axes[0].set_ylabel(f"|ZDR bias| (dB), Zdr {ZDR_DB:g} dB, rho {RHO:g}, phi_DP {PHIDP_DEG:g}")
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "arrays_crosspol.png", dpi=110)
+    plt.close(fig)
+    return results
+
+
 def main() -> None:
     import matplotlib
 
@@ -277,7 +343,7 @@ def main() -> None:
     args = ap.parse_args()
     out = Path(args.out)
     results: dict = {}
-    todo = args.only or ["systems", "impaired", "quantisation", "zdr", "calibration"]
+    todo = args.only or ["systems", "impaired", "quantisation", "zdr", "crosspol", "calibration"]
     if "systems" in todo:
         rows = system_table(out)
         plot_systems(rows, out)
@@ -288,6 +354,8 @@ def main() -> None:
         plot_quantisation_lobes(out)
     if "zdr" in todo:
         results["zdr"] = plot_zdr_bias(out)
+    if "crosspol" in todo:
+        results["crosspol"] = plot_crosspol(out)
     if "calibration" in todo and args.runs:
         results["calibration"] = plot_calibration(Path(args.runs), out)
     print(json.dumps(results, indent=1, default=float))
