@@ -83,6 +83,11 @@ class Receiver(Block):
                 w = chunk.rng(int(beam), k).standard_normal((*echo.shape[1:3], 2), np.float32)
                 out[i, ..., k] += scale[i, :, None, k] * (w[..., 0] + 1j * w[..., 1])
         result: dict[str, Any] = {"iq": out, "noise_power": noise}
+        if chunk.options.get("save_iq") and echo.shape[2] == 0:
+            raise ValueError(
+                "--save-iq: the I/Q cube has no pulses to store (the weather channel's "
+                "'expected' level draws none); run at 'combined' or a slower level"
+            )
         if chunk.options.get("save_iq"):
             dims = ("beam", "range", "pulse")
             result["iq_store"] = xr.Dataset(
