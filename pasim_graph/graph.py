@@ -190,7 +190,13 @@ def validate(spec: GraphSpec, overrides: dict[str, Any] | None = None) -> Graph:
 
     g = nx.DiGraph()
     g.add_edges_from((e.src, e.dst) for e in edges)
-    for cycle in nx.simple_cycles(g):
+    # networkx finds cycles in an order that follows set iteration; each is started at its
+    # first name and the list sorted, so the message is the same on every run.
+    cycles = []
+    for found in nx.simple_cycles(g):
+        first = found.index(min(found))
+        cycles.append(found[first:] + found[:first])
+    for cycle in sorted(cycles):
         path = " -> ".join([*cycle, cycle[0]])
         problems.append(
             Problem(f, spec.blocks[cycle[0]].line, cycle[0], "connections", f"cycle: {path}")

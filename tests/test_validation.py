@@ -174,3 +174,14 @@ def test_block_failure_names_the_block_and_exits_2(tmp_path):
     )
     assert "Traceback" not in res.stderr
     assert not (tmp_path / "x.zarr").exists()
+
+
+def test_cycle_message_does_not_depend_on_the_hash_seed():
+    """networkx finds cycles in set order; the message must not change with PYTHONHASHSEED
+    (it did: 'a -> b -> a' or 'b -> a -> b' by seed)."""
+    messages = {
+        run_cli("validate", str(BROKEN / "cycle.yaml"), env={"PYTHONHASHSEED": str(h)}).stderr
+        for h in (1, 2, 3, 4, 5)
+    }
+    assert len(messages) == 1, messages
+    assert "cycle: a -> b -> a" in messages.pop()
