@@ -72,7 +72,9 @@ class StoreLock:
         #: The store was new (or emptied by --overwrite) when the run took it.
         self.fresh = False
         #: The run made the store's directory.
-        self.made_dir = False
+        # Directories this run created for the store, deepest first (the store, then any
+        # parents that were missing): a fresh run that fails removes them again.
+        self.made_dirs: list[Path] = []
         self._previous_bytes = b""
 
     @classmethod
@@ -210,7 +212,7 @@ def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str)
         raise StoreError(
             f"{path} is {what} (no {MARKER} in it); it is left untouched: choose another --out"
         )
-    made_dir = not path.exists()
+    made_dirs = [p for p in (path, *path.parents) if not p.exists()]
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -222,7 +224,7 @@ def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str)
         why = "the file system is read-only" if readonly else "permission denied"
         raise StoreError(f"cannot write to {path}: {why}")
     lock = StoreLock.acquire(path, command)
-    lock.made_dir = made_dir
+    lock.made_dirs = made_dirs
     try:
         # Checked again under the lock: another run may have made the store meanwhile.
         existing = set(_entries(path)) - {LOCK}
@@ -252,16 +254,18 @@ def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str)
 
 def discard_store(lock: StoreLock) -> None:
     """Undo a fresh store that holds nothing yet (its run failed before writing anything):
-    remove the marker, the lock, and the directory if the run made it."""
+    remove the marker, the lock, and the directories the run made for it."""
     store = lock.path.parent
     if not (lock.fresh and is_store(store)) or run_state(store) is not None:
         return
     clear_store(store)
     (store / MARKER).unlink()
     lock.release()
-    if lock.made_dir:
-        with contextlib.suppress(OSError):
-            store.rmdir()
+    for made in lock.made_dirs:
+        try:
+            made.rmdir()
+        except OSError:
+            break  # not empty: something else is in it now
 
 
 def clear_store(path: Path) -> None:

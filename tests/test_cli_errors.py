@@ -428,15 +428,16 @@ def test_memory_error_names_the_block(tmp_path):
 
 def test_save_iq_at_the_expected_level_is_refused(capsys, tmp_path):
     """The expected level draws no pulses: --save-iq would store empty cubes, so the receiver
-    refuses it, names the option and the level to use, and leaves no store."""
-    out = tmp_path / "x.zarr"
+    refuses it, names the option and the level to use, and leaves no store, nor the parent
+    directories the run made for it."""
+    out = tmp_path / "new" / "deeper" / "x.zarr"
     err = refused(
         capsys,
         *("run", UNIFORM, "--sector", "0:2", "--set", "weather.method=expected"),
         *("--save-iq", "--out", str(out)),
     )
     assert "block 'receiver'" in err and "--save-iq" in err and "'combined'" in err
-    assert not out.exists()
+    assert not (tmp_path / "new").exists()
 
 
 # ---- small frictions ----------------------------------------------------------------------------
