@@ -118,7 +118,10 @@ _Dumper.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456
 
 _ENDPOINT = r"([A-Za-z_][\w-]*)(?:\.(\w+))?"
 _CONNECTION = re.compile(rf"^\s*{_ENDPOINT}\s*->\s*{_ENDPOINT}\s*$")
-_NAME = re.compile(r"^[A-Za-z_][\w-]*$")
+#: What a block name may be (a graph file's, the studio's).
+BLOCK_NAME = re.compile(r"^[A-Za-z_][\w-]*$")
+#: What a port name may be.
+PORT_NAME = re.compile(r"^\w+$")
 
 
 def _line(node: yaml.Node) -> int:
@@ -271,7 +274,7 @@ def _read_blocks(spec: GraphSpec, node: yaml.Node) -> None:
     for knode, vnode in node.value:
         name = knode.value
         line = _line(knode)
-        if not _NAME.match(str(name)):
+        if not BLOCK_NAME.match(str(name)):
             spec.problem(line, f"invalid block name {name!r} (letters, digits, _ and -)")
             continue
         if name in spec.blocks:
@@ -325,7 +328,7 @@ def dumps(spec: GraphSpec) -> str:
     if spec.variables:
         out.append("variables:")
         for name in sorted(spec.variables):
-            out.append(f"  {name}: {_flow(spec.variables[name])}")
+            out.append(f"  {name}: {format_value(spec.variables[name])}")
     out.append("blocks:")
     width = max((len(n) for n in spec.blocks), default=0) + 1
     for name in sorted(spec.blocks):
@@ -333,13 +336,15 @@ def dumps(spec: GraphSpec) -> str:
         body: dict[str, Any] = {"type": block.type}
         if block.params:
             body["params"] = {k: block.params[k] for k in sorted(block.params)}
-        out.append(f"  {(name + ':').ljust(width)} {_flow(body)}")
+        out.append(f"  {(name + ':').ljust(width)} {format_value(body)}")
     out.append("connections:")
     for text in sorted(str(c) for c in spec.connections):
         out.append(f"  - {text}")
     return "\n".join(out) + "\n"
 
 
-def _flow(value: Any) -> str:
+def format_value(value: Any) -> str:
+    """A value as the graph file writes it (YAML flow style): the inverse of
+    :func:`parse_value`."""
     text = yaml.dump(value, Dumper=_Dumper, default_flow_style=True, sort_keys=False, width=10**9)
     return text.strip().removesuffix("...").strip()

@@ -22,7 +22,6 @@ import hashlib
 import json
 import math
 import os
-import re
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -31,14 +30,15 @@ from .. import registry
 from ..block import Block
 from ..graph import GraphError, validate
 from ..graphfile import (
-    _NAME,
+    BLOCK_NAME,
     FORMAT,
+    PORT_NAME,
     BlockSpec,
     ConnectionSpec,
     Endpoint,
     GraphSpec,
-    _flow,
     dumps,
+    format_value,
     parse,
     parse_value,
     read,
@@ -48,9 +48,6 @@ GRAPH_SUFFIXES = (".yaml", ".yml")
 LAYOUT_SUFFIX = ".layout.json"
 LAYOUT_FORMAT = "pasim-layout/1"
 
-# The graph file's own rules: its block names, and the port names its connections can hold.
-_BLOCK_NAME = _NAME
-_PORT_NAME = re.compile(r"^\w+$")
 _MAX_TEXT = 10_000
 _MAX_BLOCKS = 1_000
 _MAX_CONNECTIONS = 10_000
@@ -178,9 +175,9 @@ def doc_from_spec(spec: GraphSpec) -> dict[str, Any]:
     """A parsed graph as a studio document (values as the canonical writer's text)."""
     return {
         "format": spec.format,
-        "variables": {k: _flow(v) for k, v in spec.variables.items()},
+        "variables": {k: format_value(v) for k, v in spec.variables.items()},
         "blocks": {
-            name: {"type": b.type, "params": {k: _flow(v) for k, v in b.params.items()}}
+            name: {"type": b.type, "params": {k: format_value(v) for k, v in b.params.items()}}
             for name, b in spec.blocks.items()
         },
         "connections": [
@@ -236,7 +233,7 @@ def spec_from_doc(doc: Any, file: str = "<graph>") -> GraphSpec:
     if len(blocks) > _MAX_BLOCKS:
         raise RequestError(400, f"'doc.blocks': more than {_MAX_BLOCKS} blocks")
     for name, b in blocks.items():
-        if not _BLOCK_NAME.match(name):
+        if not BLOCK_NAME.match(name):
             raise RequestError(
                 400, f"invalid block name {name!r}: letters, digits, _ and -, not first a digit"
             )
@@ -263,9 +260,9 @@ def spec_from_doc(doc: Any, file: str = "<graph>") -> GraphSpec:
         ends = []
         for side in ("src", "dst"):
             end, port = c.get(side), c.get(f"{side}_port")
-            if not isinstance(end, str) or not _BLOCK_NAME.match(end):
+            if not isinstance(end, str) or not BLOCK_NAME.match(end):
                 raise RequestError(400, f"connection {i + 1}: invalid '{side}' block {end!r}")
-            if port is not None and (not isinstance(port, str) or not _PORT_NAME.match(port)):
+            if port is not None and (not isinstance(port, str) or not PORT_NAME.match(port)):
                 raise RequestError(400, f"connection {i + 1}: invalid '{side}_port' {port!r}")
             ends.append(Endpoint(end, port))
         spec.connections.append(ConnectionSpec(ends[0], ends[1]))
@@ -584,12 +581,18 @@ def run_choices(doc: Any) -> dict[str, Any]:
             # Every rung sets the same keys, so a level never inherits another's setting.
             full = {k: settings.get(k, cls.params[k].default) for k in keys if k in cls.params}
             levels.append(
-                {"label": label, "block": name, "set": {k: _flow(v) for k, v in full.items()}}
+                {
+                    "label": label,
+                    "block": name,
+                    "set": {k: format_value(v) for k, v in full.items()},
+                }
             )
     elif len(methods) == 1:
         name = methods[0]
         for choice in known[name].params["method"].choices or ():
-            levels.append({"label": str(choice), "block": name, "set": {"method": _flow(choice)}})
+            levels.append(
+                {"label": str(choice), "block": name, "set": {"method": format_value(choice)}}
+            )
     sector = None
     scans = [n for n, c in known.items() if c.role == "scan"]
     if len(scans) == 1:
@@ -686,7 +689,7 @@ def write_layout(folder: Folder, rel: Any, positions: Any) -> dict[str, Any]:
     positions = _mapping(positions, "'positions'")
     clean: dict[str, list[float]] = {}
     for name, xy in positions.items():
-        if not _BLOCK_NAME.match(name):
+        if not BLOCK_NAME.match(name):
             raise RequestError(400, f"'positions': invalid block name {name!r}")
         if (
             not isinstance(xy, list)

@@ -209,7 +209,7 @@ class Runs:
 
     def _edits(self, rel: str, text: str) -> str:
         """The blocks a run's graph changes from the file on disk, for its label."""
-        from ..graphfile import _flow, parse
+        from ..graphfile import format_value, parse
 
         try:
             disk = read_text(self.folder.resolve(rel))
@@ -226,7 +226,7 @@ class Runs:
             else:
                 for k in sorted(set(a.params) | set(b.params)):
                     if a.params.get(k) != b.params.get(k):
-                        out.append(f"{name}.{k}={_flow(b.params.get(k))}")
+                        out.append(f"{name}.{k}={format_value(b.params.get(k))}")
         if sorted(map(str, old.connections)) != sorted(map(str, new.connections)):
             out.append("rewired")
         if old.variables != new.variables:
