@@ -80,6 +80,11 @@ class NexradScorer(Block):
             f"{self.p['min_snr_db']:g} dB, beyond the blind range ({blind:g} m); truth = the "
             f"raw radial nearest each beam; calibration: {est.attrs['calibration']}"
         )
+        if est.attrs.get("transmission") == "ahv":
+            rule += (
+                "; transmission: ahv (velocity and phi_DP scored on its own circles, +-v_a and "
+                "180 deg)"
+            )
         dims = ("beam", "range")
         scored_attrs = {
             "pasim_role": "scored",

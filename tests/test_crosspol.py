@@ -383,4 +383,5 @@ def test_ahv_graph_runs_end_to_end() -> None:
             truth["RHOHV"], abs=tol / 10
         )
         assert sweep["error_PHIDP"].attrs["period"] == 180.0
+        assert "transmission: ahv" in sweep["scored"].attrs["scored"]
         assert np.nanmax(np.abs(sweep["error_PHIDP"].values)) <= 90.0
