@@ -388,8 +388,8 @@ def _print_scores(scores: dict[str, dict[str, Any]], stream: Any) -> None:
     for name, s in scores.items():
         if s.get("unestimated"):
             print(
-                f"{name}: {s['unestimated']} of {n} scored gates have no estimate (undefined: "
-                "noise-corrected power <= 0)",
+                f"{name}: {s['unestimated']} of {n} scored gates have no estimate (censored "
+                "below the processor's SNR threshold, or undefined: noise-corrected power <= 0)",
                 file=stream,
             )
 
