@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
-import resource
+import os
 import subprocess
 import sys
 import tempfile
@@ -31,25 +31,21 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             out = Path(tmp) / "run.zarr"
             t0 = time.perf_counter()
-            subprocess.run(
-                [
-                    sys.executable,
-                    "-m",
-                    "pasim_graph",
-                    "run",
-                    str(ROOT / "graphs" / f"{name}.yaml"),
-                    "--sector",
-                    args.sector,
-                    "--seed",
-                    str(args.seed),
-                    "--out",
-                    str(out),
-                ],
-                check=True,
-                capture_output=True,
-            )
-            wall = time.perf_counter() - t0
-        peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+            cmd = [
+                *(sys.executable, "-m", "pasim_graph", "run"),
+                str(ROOT / "graphs" / f"{name}.yaml"),
+                *("--sector", args.sector, "--seed", str(args.seed), "--out", str(out)),
+            ]
+            with tempfile.TemporaryFile() as err:
+                child = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err)
+                # wait4: this child's own peak (RUSAGE_CHILDREN would keep the largest of all
+                # the runs so far).
+                _, status, usage = os.wait4(child.pid, 0)
+                wall = time.perf_counter() - t0
+                if os.waitstatus_to_exitcode(status) != 0:
+                    err.seek(0)
+                    raise SystemExit(f"{name}: pasim run failed:\n{err.read().decode()}")
+        peak_mb = usage.ru_maxrss / 1024
         print(
             json.dumps(
                 {
