@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -333,24 +334,27 @@ class CellModel:
         series = self._series(rows, gates, basis.shape[0])
         return [series(gen_h if k == 0 else gen_v) for k in range(count)]
 
-    def _drop_units(
-        self,
-        rows: np.ndarray,
-        gates: np.ndarray,
-        gen_h: np.random.Generator,
-        gen_v: np.random.Generator,
-        count: int,
-        basis: np.ndarray,
-    ) -> list[np.ndarray]:
-        n, d, pulses = rows.size, self.drops, self.pulses
+    def _drop_batches(
+        self, rows: np.ndarray, gates: np.ndarray, gen_h: np.random.Generator, basis: np.ndarray
+    ) -> Iterator[tuple[slice, np.ndarray, np.ndarray]]:
+        """The cells' drops in batches: (cells, share, track) per batch.
+
+        Each cell's ``drops`` drops get a velocity (the cell's mean and width), a backscatter
+        phase and a sub-gate place, drawn from ``gen_h``; ``share`` (cell x component x drop)
+        is what each drop puts on each range component, ``track`` (cell x drop x pulse) its
+        phase at each pulse as it moves velocity x PRT every pulse.
+        """
+        d, pulses = self.drops, self.pulses
         r, n_fine = basis.shape
-        out = [np.empty((n, r, pulses), self.cdtype) for _ in range(count)]
         k = -4 * np.pi / self.wavelength_m
         m = np.arange(pulses)
+        # sqrt(n_fine) basis[:, s]: a drop at sub-gate place s gives each component unit power
+        # on average over places (the basis rows have unit norm).
         weight = (basis * np.sqrt(n_fine)).astype(self.cdtype)
+        # Cells in batches, so the drops x pulses phasors of a batch stay small in memory.
         batch = max(1, 2_000_000 // (d * max(pulses, r)))
-        for a in range(0, n, batch):
-            b = min(n, a + batch)
+        for a in range(0, rows.size, batch):
+            b = min(rows.size, a + batch)
             rr, gg = rows[a:b], gates[a:b]
             mean = self.field["VRADH"][rr, gg][:, None]
             width = np.clip(self.field["WRADH"][rr, gg], 0, None)[:, None]
@@ -360,12 +364,25 @@ class CellModel:
             track = np.exp(
                 1j * (position[..., None] + k * velocity[..., None] * (m * self.prt_s))
             ).astype(self.cdtype)
-            scale = self.cdtype(1 / np.sqrt(d))
-            share = weight[:, place].transpose(1, 0, 2)
-            out[0][a:b] = scale * (share @ track)
+            yield slice(a, b), weight[:, place].transpose(1, 0, 2), track
+
+    def _drop_units(
+        self,
+        rows: np.ndarray,
+        gates: np.ndarray,
+        gen_h: np.random.Generator,
+        gen_v: np.random.Generator,
+        count: int,
+        basis: np.ndarray,
+    ) -> list[np.ndarray]:
+        n, r = rows.size, basis.shape[0]
+        out = [np.empty((n, r, self.pulses), self.cdtype) for _ in range(count)]
+        scale = self.cdtype(1 / np.sqrt(self.drops))
+        for c, share, track in self._drop_batches(rows, gates, gen_h, basis):
+            out[0][c] = scale * (share @ track)
             for z in out[1:]:
-                phase = np.exp(1j * gen_v.uniform(0.0, 2 * np.pi, (b - a, d))).astype(self.cdtype)
-                z[a:b] = scale * ((share * phase[:, None, :]) @ track)
+                phase = np.exp(1j * gen_v.uniform(0.0, 2 * np.pi, (c.stop - c.start, self.drops)))
+                z[c] = scale * ((share * phase.astype(self.cdtype)[:, None, :]) @ track)
         return out
 
     def _complex(self, pairs: np.ndarray, n: int, r: int) -> np.ndarray:
@@ -384,38 +401,18 @@ class CellModel:
         need_v: bool,
         basis: np.ndarray,
     ) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[tuple[np.ndarray, np.ndarray]]]:
-        n, d, pulses = rows.size, self.drops, self.pulses
-        r, n_fine = basis.shape
-        h = np.empty((n, r, pulses), self.cdtype)
-        v = np.empty((n, r, pulses), self.cdtype) if need_v else None
-        k = -4 * np.pi / self.wavelength_m
-        m = np.arange(pulses)
-        # sqrt(n_fine) basis[:, s]: a drop at sub-gate place s gives each component unit power
-        # on average over places (the basis rows have unit norm).
-        weight = (basis * np.sqrt(n_fine)).astype(self.cdtype)
-        # Cells in batches, so the drops x pulses phasors of a batch stay small in memory.
-        batch = max(1, 2_000_000 // (d * max(pulses, r)))
-        for a in range(0, n, batch):
-            b = min(n, a + batch)
-            rr, gg = rows[a:b], gates[a:b]
-            mean = self.field["VRADH"][rr, gg][:, None]
-            width = np.clip(self.field["WRADH"][rr, gg], 0, None)[:, None]
-            velocity = mean + width * gen_h.standard_normal((b - a, d))
-            position = gen_h.uniform(0.0, 2 * np.pi, (b - a, d))
-            place = gen_h.integers(0, n_fine, (b - a, d))
+        n, d, r = rows.size, self.drops, basis.shape[0]
+        h = np.empty((n, r, self.pulses), self.cdtype)
+        v = np.empty((n, r, self.pulses), self.cdtype) if need_v else None
+        scale = 1 / np.sqrt(d)
+        for c, share, track in self._drop_batches(rows, gates, gen_h, basis):
+            rr, gg = rows[c], gates[c]
             sigma = np.sqrt(-2 * np.log(np.clip(self.rho[rr, gg], 1e-12, 1.0)) / 2)[:, None]
-            phi_h = sigma * gen_h.standard_normal((b - a, d))
-            # Phase of each drop at each pulse: it moves velocity * PRT every pulse.
-            track = np.exp(
-                1j * (position[..., None] + k * velocity[..., None] * (m * self.prt_s))
-            ).astype(self.cdtype)
-            scale = 1 / np.sqrt(d)
-            # cell x component x drop: what each drop puts on each range component.
-            share = weight[:, place].transpose(1, 0, 2)
-            h[a:b] = scale * ((share * np.exp(1j * phi_h)[:, None, :]) @ track)
+            phi_h = sigma * gen_h.standard_normal((rr.size, d))
+            h[c] = scale * ((share * np.exp(1j * phi_h)[:, None, :]) @ track)
             if v is not None:
-                phi_v = sigma * gen_v.standard_normal((b - a, d))
-                v[a:b] = (
+                phi_v = sigma * gen_v.standard_normal((rr.size, d))
+                v[c] = (
                     scale
                     * ((share * np.exp(1j * phi_v)[:, None, :]) @ track)
                     * self.phase_dp[rr, gg][:, None, None]
