@@ -66,6 +66,20 @@ def alternate_correlations(
     return out
 
 
+def _velocity_width(
+    power: np.ndarray, ok: np.ndarray, r: np.ndarray, lag_s: float, wavelength_m: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity and width (Gaussian spectrum) from the noise-corrected power and the
+    autocorrelation ``r`` at lag ``lag_s``; NaN where not ``ok`` or where ``r`` is zero."""
+    ok = ok & (np.abs(r) > 0)
+    velocity = -wavelength_m / (4 * np.pi * lag_s) * np.angle(r)
+    ratio = np.log(np.where(ok, power, np.nan) / np.abs(r))
+    # |R| above the corrected power (noise or short dwell): width below resolution.
+    width = wavelength_m / (2 * np.sqrt(2) * np.pi * lag_s) * np.sqrt(np.maximum(ratio, 0))
+    nan = np.float64(np.nan)
+    return np.where(ok, velocity, nan), np.where(ok, width, nan)
+
+
 def alternate_moments(
     corr: dict,
     noise_h: float | np.ndarray,
@@ -98,12 +112,9 @@ def alternate_moments(
         if "R2_H" in corr:
             r2 = corr["R2_H"] + (corr["R2_V"] if "R2_V" in corr else 0)
             power = p_h + (p_v if p_v is not None else 0)
-            ok = ok_h & (power > 0) & (np.abs(r2) > 0)
-            velocity = -wavelength_m / (8 * np.pi * prt_s) * np.angle(r2)
-            ratio = np.log(np.where(ok, power, np.nan) / np.abs(r2))
-            width = wavelength_m / (4 * np.sqrt(2) * np.pi * prt_s) * np.sqrt(np.maximum(ratio, 0))
-            out["VRADH"] = np.where(ok, velocity, nan)
-            out["WRADH"] = np.where(ok, width, nan)
+            out["VRADH"], out["WRADH"] = _velocity_width(
+                power, ok_h & (power > 0), r2, 2 * prt_s, wavelength_m
+            )
         if p_v is not None:
             ok = ok_h & (p_v > 0)
             out["S_V"] = p_v
@@ -141,13 +152,9 @@ def moments_from_correlations(
     out: dict[str, np.ndarray] = {"S_H": p_h}
     with np.errstate(divide="ignore", invalid="ignore"):
         if "R1_H" in corr:
-            r1 = corr["R1_H"]
-            velocity = -wavelength_m / (4 * np.pi * prt_s) * np.angle(r1)
-            ratio = np.log(np.where(ok_h, p_h, np.nan) / np.abs(r1))
-            # |R1| above the corrected power (noise or short dwell): width below resolution.
-            width = wavelength_m / (2 * np.sqrt(2) * np.pi * prt_s) * np.sqrt(np.maximum(ratio, 0))
-            out["VRADH"] = np.where(ok_h & (np.abs(r1) > 0), velocity, nan)
-            out["WRADH"] = np.where(ok_h & (np.abs(r1) > 0), width, nan)
+            out["VRADH"], out["WRADH"] = _velocity_width(
+                p_h, ok_h, corr["R1_H"], prt_s, wavelength_m
+            )
         if "R0_V" in corr:
             p_v = np.real(corr["R0_V"]) - noise_v
             r_hv = corr["R0_HV"]
