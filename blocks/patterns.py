@@ -1117,18 +1117,15 @@ def first_sidelobe_db(angles_deg: npt.ArrayLike, power: npt.ArrayLike) -> float:
         If no sidelobe is found on either side.
     """
     _, p = _check_cut(angles_deg, power)
-    i0 = int(np.argmax(p))
-    peak = _parabolic_peak(p, i0)
+    peak = _parabolic_peak(p, int(np.argmax(p)))
+    lo, hi = main_lobe_bounds(p)
     levels = []
-    for side in (p[i0:], p[i0::-1]):
-        rising = np.flatnonzero(np.diff(side) > 0)
-        if rising.size == 0:
-            continue  # monotone to the end of the cut: no sidelobe on this side
-        null = rising[0]
-        falling = np.flatnonzero(np.diff(side[null:]) < 0)
+    # From each first null outwards (an end of the cut when there is none).
+    for side in (p[hi:], p[lo::-1]):
+        falling = np.flatnonzero(np.diff(side) < 0)
         if falling.size == 0:
-            continue  # still rising at the end of the cut: the lobe is not resolved
-        levels.append(_parabolic_peak(side, null + falling[0]))
+            continue  # no null, or still rising at the end of the cut: no resolved sidelobe
+        levels.append(_parabolic_peak(side, falling[0]))
     if not levels:
         raise ValueError("no sidelobe found in the cut")
     return float(10.0 * np.log10(max(levels) / peak))
