@@ -23,6 +23,7 @@ import json
 import math
 import os
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -108,9 +109,9 @@ class Folder:
     def rel(self, path: Path) -> str:
         return path.resolve().relative_to(self.root).as_posix()
 
-    def graphs(self, limit: int = 1000) -> list[str]:
-        """Graph files in the folder and its subfolders (hidden folders and venvs skipped)."""
-        out: list[str] = []
+    def _walk(self) -> Iterator[tuple[str, list[str]]]:
+        """(folder, sorted file names) below the root; hidden folders, node_modules,
+        __pycache__ and stores skipped."""
         for dirpath, dirnames, filenames in os.walk(self.root):
             dirnames[:] = sorted(
                 d
@@ -119,7 +120,13 @@ class Folder:
                 and d not in ("node_modules", "__pycache__")
                 and not d.endswith(".zarr")
             )
-            for f in sorted(filenames):
+            yield dirpath, sorted(filenames)
+
+    def graphs(self, limit: int = 1000) -> list[str]:
+        """Graph files in the folder and its subfolders (hidden folders and venvs skipped)."""
+        out: list[str] = []
+        for dirpath, filenames in self._walk():
+            for f in filenames:
                 if f.endswith(GRAPH_SUFFIXES):
                     full = Path(dirpath) / f
                     # Symlinks out of the folder are not listed (and refused if asked for).
@@ -132,15 +139,8 @@ class Folder:
     def truths(self, limit: int = 200) -> list[str]:
         """Files in the folder that start like a NEXRAD Level-II volume (``AR2V``/``ARCHIVE2``)."""
         out: list[str] = []
-        for dirpath, dirnames, filenames in os.walk(self.root):
-            dirnames[:] = sorted(
-                d
-                for d in dirnames
-                if not d.startswith(".")
-                and d not in ("node_modules", "__pycache__")
-                and not d.endswith(".zarr")
-            )
-            for f in sorted(filenames):
+        for dirpath, filenames in self._walk():
+            for f in filenames:
                 full = Path(dirpath) / f
                 try:
                     with open(full, "rb") as fh:
