@@ -34,6 +34,7 @@ from .executor import LocalExecutor, RunOptions, chunks, merge_products
 from .graph import Graph
 from .store import (
     COMPLETE,
+    StoreLock,
     beam_dimension,
     clear_store,
     create_volume,
@@ -170,6 +171,15 @@ def _traced(fn: Callable[[], Any]) -> tuple[Any, tuple[int, int]]:
     return result, (max(0, peak - base - kept), kept)
 
 
+def _tree_bytes(path: Path) -> int:
+    total = 0
+    for dirpath, _, files in os.walk(path):
+        for name in files:
+            with contextlib.suppress(OSError):
+                total += os.lstat(os.path.join(dirpath, name)).st_size
+    return total
+
+
 def _warm_up(classes: list[type[Block]]) -> None:
     for cls in classes:
         cls.warm_up()
@@ -256,7 +266,7 @@ class DaskExecutor:
                     "taking over the lock of a run that stopped early "
                     f"({describe_holder(lock.previous)})"
                 )
-            return self._run_locked(path, key, starts, attrs, log)
+            return self._run_locked(lock, key, starts, attrs, log)
         except BaseException as exc:
             # Nothing computed was written yet: leave no empty store to trip the next run.
             discard_store(lock)
@@ -268,16 +278,21 @@ class DaskExecutor:
 
     def _run_locked(
         self,
-        path: Path,
+        lock: StoreLock,
         key: str,
         starts: list[np.ndarray],
         attrs: dict[str, Any],
         log: Callable[[str], None],
     ) -> RunReport:
+        path = lock.path.parent
         n_beams = self.local.plan.beam_count
         done = np.zeros(len(starts), bool)
-        state = run_state(path)
-        if state is None:
+        # --overwrite: the old store is laid out afresh, but emptied only once this run has
+        # read its inputs and passed its checks (lock.replace below).
+        state = None if lock.replacing else run_state(path)
+        if lock.replacing:
+            pass
+        elif state is None:
             # A new store, or one killed while its template was written: start afresh.
             clear_store(path)
         elif state[0].get("pasim_run_key") != key:
@@ -307,7 +322,8 @@ class DaskExecutor:
                 first = merge_products(parts + self.local.static_products(static))
                 root, sweep = split_volume(first, attrs)
                 probe = Probe(*probe_memory, _stored_bytes(sweep, beam_dimension(sweep)))
-                self._check_resources(path, probe, n_beams)
+                self._check_resources(path, probe, n_beams, lock)
+                lock.replace()
                 create_volume(
                     path,
                     root,
@@ -342,10 +358,12 @@ class DaskExecutor:
         mark_complete(path)
         return RunReport(len(starts), len(todo), n_beams, t1 - t0, t2 - t1)
 
-    def _check_resources(self, path: Path, probe: Probe, n_beams: int) -> None:
+    def _check_resources(self, path: Path, probe: Probe, n_beams: int, lock: StoreLock) -> None:
         """Refuse a run whose products would not fit the disk, or whose chunks the memory."""
         disk = probe.stored_bytes * n_beams
         free = shutil.disk_usage(path).free
+        if lock.replacing:
+            free += _tree_bytes(path)  # the store being replaced is freed before writing
         if disk > 0.95 * free:
             raise ResourceError(
                 f"this run would write about {_gib(disk)} to {path} "

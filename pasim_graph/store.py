@@ -69,8 +69,11 @@ class StoreLock:
         self.path, self._fd = path, fd
         #: What the lock file said when it was taken: the crashed run's details, or None.
         self.previous = previous
-        #: The store was new (or emptied by --overwrite) when the run took it.
+        #: The store was new when the run took it (or --overwrite has emptied it).
         self.fresh = False
+        #: --overwrite of a finished store: its contents stay until the new run has read its
+        #: inputs and passed its checks, then :meth:`replace` empties it.
+        self.replacing = False
         #: The run made the store's directory.
         # Directories this run created for the store, deepest first (the store, then any
         # parents that were missing): a fresh run that fails removes them again.
@@ -158,6 +161,13 @@ class StoreLock:
         os.close(self._fd)
         self._fd = -1
 
+    def replace(self) -> None:
+        """Empty a store taken with --overwrite, now that the new run is about to write it."""
+        if self.replacing:
+            clear_store(self.path.parent)
+            self.replacing = False
+            self.fresh = True
+
     def __enter__(self) -> StoreLock:
         return self
 
@@ -190,8 +200,11 @@ def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str)
     """Take a directory for a run to write, refusing anything this program did not write.
 
     ``path`` may be missing or an empty directory (a new store), or a store of ours: with
-    ``overwrite`` its contents are removed, with ``resume`` they are kept for the run to
-    complete; without either an existing store is refused. A plain file, a non-empty
+    ``overwrite`` it is marked for replacement (emptied by :meth:`StoreLock.replace` only once
+    the new run is ready to write, so a run that fails first leaves it as it was), with
+    ``resume`` it is kept for the run to complete; without either an existing store is
+    refused. An overwrite is refused, naming them, when the store holds files this program
+    did not write there (a user's notes or plots). A plain file, a non-empty
     directory without the marker (``.``, a home folder, a foreign Zarr), a store another
     run is writing, or a place that cannot be written raise :class:`StoreError` naming the
     path, before anything in it is touched. Returns the held lock.
@@ -236,8 +249,20 @@ def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str)
                 f"{path} exists{crashed}; pass --resume to complete it or --overwrite to replace it"
             )
         if existing and overwrite:
-            clear_store(path)
-            existing = set()
+            foreign = foreign_entries(path)
+            if foreign:
+                shown = ", ".join(foreign[:5]) + (
+                    f" and {len(foreign) - 5} more" if len(foreign) > 5 else ""
+                )
+                raise StoreError(
+                    f"{path} holds files this program did not write ({shown}); --overwrite "
+                    "would delete them: move them out of the store, or choose another --out"
+                )
+            if run_state(path) is None:
+                clear_store(path)  # nothing of a finished run to keep (a template cut short)
+                existing = set()
+            else:
+                lock.replacing = True
         if not existing:
             from . import __version__
 
@@ -278,6 +303,41 @@ def clear_store(path: Path) -> None:
             shutil.rmtree(entry)
         else:
             entry.unlink()
+
+
+def foreign_entries(path: Path) -> list[str]:
+    """Entries of a store that this program did not write, relative to it (sorted).
+
+    A store holds its marker, its lock and a Zarr v3 hierarchy: groups (a ``zarr.json`` and
+    child nodes) and arrays (a ``zarr.json`` and their chunks under ``c``). Anything else was
+    put there by someone else.
+    """
+
+    def walk(node: Path, rel: str) -> list[str]:
+        out: list[str] = []
+        try:
+            meta = json.loads((node / "zarr.json").read_text())
+        except (OSError, ValueError):
+            meta = {}
+        is_array = isinstance(meta, dict) and meta.get("node_type") == "array"
+        for entry in sorted(node.iterdir(), key=lambda e: e.name):
+            name = f"{rel}{entry.name}"
+            if entry.name == "zarr.json" or (not rel and entry.name in (MARKER, LOCK)):
+                continue
+            if is_array:
+                # chunks live under c/ (c itself for a 0-d array)
+                if entry.name != "c" or entry.is_symlink():
+                    out.append(name)
+            elif entry.is_dir() and not entry.is_symlink() and (entry / "zarr.json").exists():
+                out += walk(entry, name + "/")
+            else:
+                out.append(name)
+        return out
+
+    try:
+        return walk(path, "")
+    except OSError as exc:
+        raise StoreError(f"cannot read {path}: {exc.strerror or exc}") from None
 
 
 def _entries(path: Path) -> list[str]:
@@ -355,12 +415,8 @@ def create_volume(
             shape = tuple(n_beams if d == beam_dim else sweep.sizes[d] for d in var.dims)
             chunks = tuple(chunk_beams if d == beam_dim else sweep.sizes[d] for d in var.dims)
             template[name] = xr.Variable(
-                var.dims, da.zeros(shape, var.dtype, chunks=chunks), var.attrs
+                var.dims, da.zeros(shape, dtype=var.dtype, chunks=chunks), var.attrs
             )
-            if np.issubdtype(var.dtype, np.floating) or np.issubdtype(
-                var.dtype, np.complexfloating
-            ):
-                template[name].encoding["fill_value"] = np.nan
         else:
             template[name] = var.variable
     coords = {n: c.variable for n, c in sweep.coords.items() if beam_dim not in c.dims}
@@ -368,18 +424,60 @@ def create_volume(
     done = xr.Dataset({DONE: ("pasim_chunk", np.zeros(n_chunks, np.int8))})
     root = root.assign(done)
     root.attrs[COMPLETE] = "false"
+    root_encoding = {n: encoding(v.dtype) for n, v in root.variables.items()}
+    root_encoding[DONE]["chunks"] = (1,)
     with _quiet():
         # mode "a", never "w": zarr's "w" empties the whole directory, marker and lock included.
-        root.to_zarr(path, mode="a", consolidated=False, encoding={DONE: {"chunks": (1,)}})
-        ds.to_zarr(path, group="sweep_0", mode="a", consolidated=False, compute=False)
+        root.to_zarr(path, mode="a", consolidated=False, encoding=root_encoding)
+        ds.to_zarr(
+            path,
+            group="sweep_0",
+            mode="a",
+            consolidated=False,
+            compute=False,
+            encoding={n: encoding(v.dtype) for n, v in ds.variables.items()},
+        )
+
+
+def encoding(dtype: np.dtype) -> dict[str, Any]:
+    """How every array of a store is written: its own dtype, NaN where nothing was written
+    yet (floats and complex), and each chunk zstd-compressed under a CRC-32C checksum, so a
+    chunk damaged on disk is an error when read, never a wrong value.
+
+    The dtype is given explicitly, as a guard: a template built with ``da.zeros(shape, dtype)``
+    (dask ignores a positional dtype) was float64 and stored the I/Q cubes without their Q
+    channel.
+    """
+    from zarr.codecs import Crc32cCodec, ZstdCodec
+
+    out: dict[str, Any] = {"compressors": [ZstdCodec(level=0), Crc32cCodec()]}
+    dtype = np.dtype(dtype)
+    if dtype.kind in "fc":
+        out["dtype"] = dtype
+        out["fill_value"] = complex(np.nan, np.nan) if dtype.kind == "c" else np.nan
+    elif dtype.kind in "iub":
+        out["dtype"] = dtype
+    return out
 
 
 def write_region(path: str | Path, sweep: xr.Dataset, start: int, chunk_index: int) -> None:
     """Write one chunk's beams into their region, then flag the chunk as done."""
+    import zarr
+
     beam_dim = beam_dimension(sweep)
     region_vars = [n for n, v in sweep.data_vars.items() if beam_dim in v.dims]
     ds = sweep[region_vars].drop_vars(list(sweep.coords), errors="ignore")
     stop = start + sweep.sizes[beam_dim]
+    # What is stored must be what was computed: xarray casts silently (complex to real drops
+    # the Q channel), so a variable whose dtype differs from its stored array's is refused.
+    group = zarr.open_group(str(path), path="sweep_0", mode="r")
+    for name in region_vars:
+        stored = group[name].dtype  # type: ignore[union-attr]
+        if ds[name].dtype.kind in "fciub" and stored != ds[name].dtype:
+            raise TypeError(
+                f"{path}: variable {name} is {ds[name].dtype} but its store holds {stored}; "
+                "refusing to cast it"
+            )
     with _quiet():
         ds.to_zarr(path, group="sweep_0", region={beam_dim: slice(start, stop)}, consolidated=False)
         flag = xr.Dataset({DONE: ("pasim_chunk", np.ones(1, np.int8))})

@@ -34,7 +34,7 @@ from pasim_graph.store import (
     summarize,
 )
 
-from .conftest import FIXTURES, GRAPHS, ROOT
+from .conftest import FIXTURES, GRAPHS, ROOT, run_cli
 
 TINY = str(FIXTURES / "tiny_uniform.yaml")
 # 10 chunks of 2 beams, about 1 s of chunks after 2-3 s of set-up: long enough to be caught
@@ -184,14 +184,91 @@ def test_store_of_ours_refused_replaced_or_kept(tmp_path, capsys):
     assert code == 0 and "already complete" in err
     assert tree_digest(out) == before
 
-    (out / "left_over.txt").write_text("inside our store")
     code, err = pasim(capsys, "run", TINY, "--seed", "2", "--out", str(out), "--overwrite")
     assert code == 0, err
-    assert not (out / "left_over.txt").exists()
     fresh = tmp_path / "fresh.zarr"
     assert pasim(capsys, "run", TINY, "--seed", "2", "--out", str(fresh))[0] == 0
     assert_same_volume(out, fresh)
     assert xr.open_datatree(out, engine="zarr").attrs["seed"] == 2
+
+
+def test_overwrite_refuses_to_delete_what_a_user_put_in_the_store(tmp_path, capsys):
+    """Files a user keeps inside a store (notes, plots, a link to their folder) are named and
+    the overwrite refused, everything left as it was; once moved out, it goes ahead."""
+    out = tmp_path / "run.zarr"
+    assert pasim(capsys, "run", TINY, "--seed", "1", "--out", str(out))[0] == 0
+    (out / "NOTES.txt").write_text("inside our store")
+    (out / "my_plots").mkdir()
+    (out / "my_plots" / "ppi.png").write_bytes(b"png")
+    theirs = fill(tmp_path / "theirs")
+    (out / "shortcut").symlink_to(theirs, target_is_directory=True)
+    (out / "sweep_0" / "stray.txt").write_text("inside a group")
+    before, theirs_before = tree_digest(out), tree_digest(theirs)
+    code, err = pasim(capsys, "run", TINY, "--seed", "2", "--out", str(out), "--overwrite")
+    assert code == 2, err
+    assert "Traceback" not in err
+    for name in ("NOTES.txt", "my_plots", "shortcut", "sweep_0/stray.txt"):
+        assert name in err
+    assert tree_digest(out) == before and tree_digest(theirs) == theirs_before
+    for name in ("NOTES.txt", "shortcut", "sweep_0/stray.txt"):
+        (out / name).unlink()
+    (out / "my_plots" / "ppi.png").unlink()
+    (out / "my_plots").rmdir()
+    assert pasim(capsys, "run", TINY, "--seed", "2", "--out", str(out), "--overwrite")[0] == 0
+    assert xr.open_datatree(out, engine="zarr").attrs["seed"] == 2
+    assert tree_digest(theirs) == theirs_before
+
+
+GENERIC_SMALL = ["run", str(GRAPHS / "generic_radar.yaml"), "--sector", "282:284"]
+GENERIC_SMALL += ["--set", "scan.pulses=8", "--seed", "3"]
+
+
+@pytest.fixture(scope="module")
+def finished_generic(tmp_path_factory):
+    """A finished store of the generic radar on the bundled volume (copied per test)."""
+    out = tmp_path_factory.mktemp("generic") / "run.zarr"
+    res = run_cli(*GENERIC_SMALL, "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    return out
+
+
+@pytest.mark.parametrize("fault", ["truncated truth", "wrong-format truth", "disk refused"])
+def test_failed_overwrite_leaves_the_old_store_byte_for_byte(
+    fault, finished_generic, tmp_path, capsys, monkeypatch
+):
+    """--overwrite empties the old store only once the new run has read its inputs and passed
+    its checks: a run that fails before then leaves it exactly as it was."""
+    import shutil
+
+    out = tmp_path / "run.zarr"
+    shutil.copytree(finished_generic, out, symlinks=True)
+    before = tree_digest(out)
+    args = [*GENERIC_SMALL[1:], "--out", str(out), "--overwrite"]
+    if fault == "truncated truth":
+        bad = tmp_path / "KLBB_truncated"
+        bad.write_bytes(
+            (ROOT / "blocks" / "data" / "KLBB20160601_150025_V06").read_bytes()[:300_000]
+        )
+        args += ["--truth", str(bad)]
+    elif fault == "wrong-format truth":
+        bad = tmp_path / "scene.h5"
+        bad.write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(4096))
+        args += ["--truth", str(bad)]
+    else:
+        import pasim_graph.dask_executor as dx
+
+        real = shutil.disk_usage
+
+        def tiny(path):
+            usage = real(path)
+            return type(usage)(usage.total, usage.used, 1000)
+
+        monkeypatch.setattr(dx.shutil, "disk_usage", tiny)
+    code, err = pasim(capsys, *args)
+    assert code == 2, err
+    assert "Traceback" not in err
+    assert tree_digest(out) == before, err
+    assert_same_volume(out, finished_generic)
 
 
 def test_empty_directory_becomes_a_store(tmp_path, capsys):
@@ -200,19 +277,6 @@ def test_empty_directory_becomes_a_store(tmp_path, capsys):
     code, err = pasim(capsys, "run", TINY, "--out", str(out))
     assert code == 0, err
     assert is_store(out) and run_state(out)[0]["pasim_complete"] == "true"
-
-
-def test_clearing_never_follows_a_link_out_of_the_store(tmp_path, capsys):
-    """--overwrite empties our store; a link inside it to a user's folder is removed as a
-    link, and the folder it points at keeps every file."""
-    out = tmp_path / "run.zarr"
-    assert pasim(capsys, "run", TINY, "--out", str(out))[0] == 0
-    theirs = fill(tmp_path / "theirs")
-    before = tree_digest(theirs)
-    (out / "shortcut").symlink_to(theirs, target_is_directory=True)
-    assert pasim(capsys, "run", TINY, "--out", str(out), "--overwrite")[0] == 0
-    assert not (out / "shortcut").exists()
-    assert tree_digest(theirs) == before
 
 
 # ---- one writer per store ---------------------------------------------------------------------
