@@ -21,6 +21,7 @@ from . import __version__, registry
 from .block import RunNote
 from .graph import Graph, GraphError, parse_overrides, validate
 from .graphfile import Problem, read
+from .interrupt import StopMessage, Stopped, stop_on_signals
 
 EXIT_USAGE = 2
 
@@ -259,14 +260,17 @@ def cmd_run(args: argparse.Namespace) -> int:
             f"seed {args.seed}",
             file=sys.stderr,
         )
-        report = executor.run(
-            out,
-            attrs,
-            resume=args.resume,
-            overwrite=args.overwrite,
-            command=" ".join(["pasim", *sys.argv[1:]]) if sys.argv else "pasim run",
-            log=lambda s: print(s, file=sys.stderr),
-        )
+        with stop_on_signals():
+            report = executor.run(
+                out,
+                attrs,
+                resume=args.resume,
+                overwrite=args.overwrite,
+                command=" ".join(["pasim", *sys.argv[1:]]) if sys.argv else "pasim run",
+                log=lambda s: print(s, file=sys.stderr),
+            )
+    except Stopped as exc:
+        raise StopMessage(_stopped_run(exc, out), exc.exit_code) from None
     except BlockError as exc:
         if args.debug:
             raise
@@ -279,8 +283,23 @@ def cmd_run(args: argparse.Namespace) -> int:
         f"of {report.chunks_total} chunks in {report.seconds_chunks:.1f} s)",
         file=sys.stderr,
     )
-    _print_scores(summarize(open_volume(out)["sweep_0"].to_dataset()), sys.stderr)
+    # The table is the product: on standard output, so `pasim run ... > scores.txt` keeps it.
+    _print_scores(summarize(open_volume(out)["sweep_0"].to_dataset()), sys.stdout)
     return 0
+
+
+def _stopped_run(exc: Stopped, out: Path) -> str:
+    """One line: what a stopped run finished and how to go on."""
+    from .store import is_store, run_state
+
+    state = run_state(out) if out.exists() and is_store(out) else None
+    if state is None:
+        return f"stopped by {exc}: nothing was written to {out}; run it again"
+    done, total = int(state[1].sum()), state[1].size
+    return (
+        f"stopped by {exc}: {done} of {total} chunks of {out} are written and kept; "
+        "complete them with the same command and --resume"
+    )
 
 
 def _fields(text: str | None, graph: Graph) -> tuple[str, ...] | None:
@@ -690,6 +709,9 @@ def main(argv: list[str] | None = None) -> int:
                 "--outputs to compute less",
                 file=sys.stderr,
             )
+        except StopMessage as exc:
+            print(str(exc), file=sys.stderr)
+            return exc.exit_code
         except KeyboardInterrupt:
             print("interrupted", file=sys.stderr)
             return 130

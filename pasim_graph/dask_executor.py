@@ -15,6 +15,7 @@ incomplete, and ``resume=True`` runs only the chunks whose flag is not set.
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import json
 import os
@@ -32,15 +33,19 @@ import xarray as xr
 from .block import Block
 from .executor import LocalExecutor, RunOptions, chunks, merge_products
 from .graph import Graph
+from .interrupt import STOPPING
 from .store import (
     COMPLETE,
+    DONE,
     StoreLock,
     beam_dimension,
+    check_chunks,
     clear_store,
     create_volume,
     describe_holder,
     discard_store,
     mark_complete,
+    mark_incomplete,
     open_store,
     run_state,
     split_volume,
@@ -61,11 +66,40 @@ class RunReport:
     seconds_chunks: float = 0.0  # running and writing the chunks
 
 
-def run_key(graph: Graph, options: RunOptions) -> str:
-    """What must match for a store to be resumed: the graph as run, seed, chunking, products."""
+def input_digests(graph: Graph) -> dict[str, str]:
+    """The content of every file a graph reads (``path`` parameters), as SHA-256 digests.
+
+    A truth file replaced at the same path is another experiment: its digest differs.
+    """
+    import hashlib
+
+    out = {}
+    for block, cls in sorted(graph.classes.items()):
+        for name, param in cls.params.items():
+            value = graph.value(block, name)
+            if param.type != "path" or not value:
+                continue
+            digest = hashlib.sha256()
+            try:
+                with open(value, "rb") as f:
+                    while piece := f.read(1 << 20):
+                        digest.update(piece)
+            except OSError:
+                continue  # validation names a missing file; the block's load says the rest
+            out[f"{block}.{name}"] = digest.hexdigest()
+    return out
+
+
+def run_key(graph: Graph, options: RunOptions, inputs: dict[str, str] | None = None) -> str:
+    """What must match for a store to be resumed: the graph as run, the content of the files
+    it reads, the program's version, seed, chunking, products."""
+    from . import __version__
+
     text = json.dumps(
         {
             "graph": graph.text(),
+            "inputs": input_digests(graph) if inputs is None else inputs,
+            "version": __version__,
             "seed": options.seed,
             "chunk_beams": options.chunk_beams,
             "products": sorted(options.wanted),
@@ -74,6 +108,35 @@ def run_key(graph: Graph, options: RunOptions) -> str:
         sort_keys=True,
     )
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _resume_mismatch(path: Path, stored: dict[str, Any], inputs: dict[str, str]) -> str:
+    """Why a store's run key differs from this run's, as precisely as the store says."""
+    from . import __version__
+
+    theirs = stored.get("pasim_graph_version")
+    if theirs is not None and theirs != __version__:
+        return (
+            f"{path} was written by pasim-graph {theirs} and this is pasim-graph "
+            f"{__version__}: resuming would mix chunks computed by different code; "
+            "use --overwrite to run it again"
+        )
+    try:
+        before = json.loads(stored.get("pasim_inputs", "null"))
+    except ValueError:
+        before = None
+    if isinstance(before, dict):
+        changed = sorted(k for k in set(before) | set(inputs) if before.get(k) != inputs.get(k))
+        if changed:
+            return (
+                f"{path} was written from other input files: the content of "
+                f"{', '.join(changed)} changed since (a file replaced at the same path); "
+                "resuming would mix two experiments; use --overwrite to run it again"
+            )
+    return (
+        f"{path} was written by another run (graph, seed, chunk "
+        "size or products differ); use --overwrite to replace it"
+    )
 
 
 #: ``scheduler`` values that run in this process: dask's threads (the default) or its
@@ -121,6 +184,10 @@ class SchedulerError(RuntimeError):
 
 class ResourceError(RuntimeError):
     """The run would not fit the memory or the disk (estimated before its chunks run)."""
+
+
+class DiskFullError(ResourceError):
+    """The disk filled while the run wrote its store (the store is kept, resumable)."""
 
 
 @dataclass
@@ -194,7 +261,11 @@ def _run_and_write(
     attrs: dict[str, Any],
 ) -> int:
     """One task: run the graph on a chunk of beams and write its region (on a worker)."""
+    if STOPPING.is_set():
+        return -1
     _, sweep = split_volume(merge_products(executor.run_chunk(static, beams)), attrs)
+    if STOPPING.is_set():
+        return -1  # the run was stopped while this chunk ran: it writes nothing more
     write_region(path, sweep, int(beams[0]), index)
     return index
 
@@ -238,6 +309,7 @@ class DaskExecutor:
             self.local.options = self.options
         self.workers, self.scheduler, self.progress = workers, scheduler, progress
         self._cluster: Any = None
+        self._disk_estimate = 0  # bytes the store will take, once the first beam has shown it
 
     def run(
         self,
@@ -256,7 +328,8 @@ class DaskExecutor:
         run ends. ``command`` is recorded in the lock, so a refused run can say who holds it.
         """
         path = Path(path)
-        key = run_key(self.graph, self.options)
+        inputs = input_digests(self.graph)
+        key = run_key(self.graph, self.options, inputs)
         n_beams = self.local.plan.beam_count
         starts = [b for b in chunks(n_beams, self.options.chunk_beams)]
         lock = open_store(path, overwrite=overwrite, resume=resume, command=command)
@@ -266,7 +339,13 @@ class DaskExecutor:
                     "taking over the lock of a run that stopped early "
                     f"({describe_holder(lock.previous)})"
                 )
-            return self._run_locked(lock, key, starts, attrs, log)
+            return self._run_locked(lock, key, inputs, starts, attrs, log)
+        except OSError as exc:
+            if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+                discard_store(lock)
+                raise
+            discard_store(lock)  # only a store that holds nothing yet
+            raise DiskFullError(self._disk_full_message(path, len(starts))) from None
         except BaseException as exc:
             # Nothing computed was written yet: leave no empty store to trip the next run.
             discard_store(lock)
@@ -280,6 +359,7 @@ class DaskExecutor:
         self,
         lock: StoreLock,
         key: str,
+        inputs: dict[str, str],
         starts: list[np.ndarray],
         attrs: dict[str, Any],
         log: Callable[[str], None],
@@ -296,16 +376,29 @@ class DaskExecutor:
             # A new store, or one killed while its template was written: start afresh.
             clear_store(path)
         elif state[0].get("pasim_run_key") != key:
-            raise ResumeError(
-                f"{path} was written by another run (graph, seed, chunk "
-                "size or products differ); use --overwrite to replace it"
-            )
+            raise ResumeError(_resume_mismatch(path, state[0], inputs))
         else:
             done = state[1].astype(bool)
-            if state[0].get(COMPLETE) == "true":
+            # In a finished store every chunk counts (a damaged done flag reads as not done);
+            # in an unfinished one, chunks not yet done are written anyway.
+            complete = state[0].get(COMPLETE) == "true"
+            repair = [i for i in self._damaged_chunks(path, len(starts)) if complete or done[i]]
+            if repair:
+                log(
+                    f"rewriting {len(repair)} damaged chunk(s) of {path}: "
+                    + ", ".join(f"{i} (beams {starts[i][0]}-{starts[i][-1]})" for i in repair)
+                )
+                done[repair] = False
+                mark_incomplete(path)
+            elif state[0].get(COMPLETE) == "true":
                 log(f"{path} is already complete")
                 return RunReport(len(starts), 0, n_beams)
-        attrs = {**attrs, "pasim_run_key": key, "chunk_beams": self.options.chunk_beams}
+        attrs = {
+            **attrs,
+            "pasim_run_key": key,
+            "pasim_inputs": json.dumps(inputs, sort_keys=True),
+            "chunk_beams": self.options.chunk_beams,
+        }
 
         t0 = time.perf_counter()
         # A cluster takes seconds to start; it starts while the inputs are read.
@@ -358,9 +451,50 @@ class DaskExecutor:
         mark_complete(path)
         return RunReport(len(starts), len(todo), n_beams, t1 - t0, t2 - t1)
 
+    def _disk_full_message(self, path: Path, n_chunks: int) -> str:
+        state = run_state(path) if path.exists() else None
+        free = shutil.disk_usage(path if path.exists() else path.parent).free
+        where = "while creating the store"
+        if state is not None:
+            where = f"with {int(state[1].sum())} of {n_chunks} chunks written"
+        need = (
+            f"; the whole run writes about {_gib(self._disk_estimate)}"
+            if self._disk_estimate
+            else ""
+        )
+        keep = (
+            "the store is kept: free space and complete it with --resume"
+            if state is not None
+            else "nothing was kept: free space and run it again"
+        )
+        return f"{path}: the disk is full ({where}; {_gib(free)} free{need}); {keep}"
+
+    def _damaged_chunks(self, path: Path, n_chunks: int) -> list[int]:
+        """The run's chunks whose stored data was damaged on disk (to be written again).
+
+        Damage outside the per-beam arrays (metadata, coordinates) cannot be rewritten chunk
+        by chunk: that store is refused, naming it.
+        """
+        damage = check_chunks(path)
+        redo, other = set(), []
+        for d in damage:
+            if d.chunk is not None and d.node == DONE:
+                redo.add(d.chunk[0])
+            elif d.chunk is not None and d.node.startswith("sweep_0/") and d.beam_axis is not None:
+                redo.add(d.chunk[d.beam_axis])
+            else:
+                other.append(d)
+        if other:
+            raise ResumeError(
+                f"{path}: " + "; ".join(map(str, other[:6])) + " cannot be rewritten by --resume "
+                "(only whole chunks of the beams can); run it again with --overwrite"
+            )
+        return sorted(i for i in redo if i < n_chunks)
+
     def _check_resources(self, path: Path, probe: Probe, n_beams: int, lock: StoreLock) -> None:
         """Refuse a run whose products would not fit the disk, or whose chunks the memory."""
         disk = probe.stored_bytes * n_beams
+        self._disk_estimate = disk
         free = shutil.disk_usage(path).free
         if lock.replacing:
             free += _tree_bytes(path)  # the store being replaced is freed before writing
@@ -425,11 +559,21 @@ class DaskExecutor:
         # Chunks already fill every core; BLAS threads inside each would oversubscribe them
         # and spin (a tenfold slowdown of small matrix products was measured). Dask's
         # distributed workers get the same limit from their nanny's environment.
-        with (
-            threadpool_limits(limits=1, user_api="blas"),
-            ProgressBar() if self.progress else contextlib.nullcontext(),
-        ):
-            dask.compute(*tasks, scheduler=self.scheduler or "threads")
+        # Our own pool, so that a run that is stopped waits for the chunks already running
+        # (they write nothing more) instead of leaving threads writing behind its back.
+        pool = ThreadPoolExecutor(os.cpu_count() or 1) if self.scheduler != "sync" else None
+        try:
+            with (
+                threadpool_limits(limits=1, user_api="blas"),
+                ProgressBar() if self.progress else contextlib.nullcontext(),
+            ):
+                if pool is None:
+                    dask.compute(*tasks, scheduler="sync")
+                else:
+                    dask.compute(*tasks, scheduler="threads", pool=pool)
+        finally:
+            if pool is not None:
+                pool.shutdown(wait=True, cancel_futures=True)
 
     def _connect(self) -> Any:
         from distributed import Client, LocalCluster

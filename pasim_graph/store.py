@@ -13,6 +13,7 @@ import shutil
 import time
 import warnings
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -428,7 +429,9 @@ def create_volume(
     root_encoding[DONE]["chunks"] = (1,)
     with _quiet():
         # mode "a", never "w": zarr's "w" empties the whole directory, marker and lock included.
-        root.to_zarr(path, mode="a", consolidated=False, encoding=root_encoding)
+        # The sweep's layout first, the root with its done flags last: until those exist the
+        # store has no run (run_state is None) and is laid out afresh, so a run killed or out
+        # of space while writing the template never leaves a half layout to resume.
         ds.to_zarr(
             path,
             group="sweep_0",
@@ -436,6 +439,10 @@ def create_volume(
             consolidated=False,
             compute=False,
             encoding={n: encoding(v.dtype) for n, v in ds.variables.items()},
+            write_empty_chunks=True,
+        )
+        root.to_zarr(
+            path, mode="a", consolidated=False, encoding=root_encoding, write_empty_chunks=True
         )
 
 
@@ -472,17 +479,28 @@ def write_region(path: str | Path, sweep: xr.Dataset, start: int, chunk_index: i
     # the Q channel), so a variable whose dtype differs from its stored array's is refused.
     group = zarr.open_group(str(path), path="sweep_0", mode="r")
     for name in region_vars:
-        stored = group[name].dtype  # type: ignore[union-attr]
+        stored = group[str(name)].dtype  # type: ignore[union-attr]
         if ds[name].dtype.kind in "fciub" and stored != ds[name].dtype:
             raise TypeError(
                 f"{path}: variable {name} is {ds[name].dtype} but its store holds {stored}; "
                 "refusing to cast it"
             )
     with _quiet():
-        ds.to_zarr(path, group="sweep_0", region={beam_dim: slice(start, stop)}, consolidated=False)
+        # Every chunk is written, even one that holds only NaN, so that in a finished store a
+        # missing chunk file is damage (check_chunks), never a silent NaN.
+        ds.to_zarr(
+            path,
+            group="sweep_0",
+            region={beam_dim: slice(start, stop)},
+            consolidated=False,
+            write_empty_chunks=True,
+        )
         flag = xr.Dataset({DONE: ("pasim_chunk", np.ones(1, np.int8))})
         flag.to_zarr(
-            path, region={"pasim_chunk": slice(chunk_index, chunk_index + 1)}, consolidated=False
+            path,
+            region={"pasim_chunk": slice(chunk_index, chunk_index + 1)},
+            consolidated=False,
+            write_empty_chunks=True,
         )
 
 
@@ -492,20 +510,38 @@ def run_state(path: str | Path) -> tuple[dict[str, Any], np.ndarray] | None:
 
     try:
         root = zarr.open_group(str(path), mode="r")
-        done = np.asarray(root[DONE][...])  # type: ignore[index]
+        flags = root[DONE]
     except Exception:  # not a store, or a template that never finished being written
         return None
+    done = np.zeros(flags.shape, np.int8)  # type: ignore[union-attr]
+    for i in range(done.size):
+        # A flag damaged on disk counts as not done: its chunk is simply run again.
+        with contextlib.suppress(Exception):
+            done[i] = flags[i]  # type: ignore[index]
     return dict(root.attrs), done
 
 
-def mark_complete(path: str | Path) -> None:
-    """The last write of a run: flag the store complete and consolidate its metadata."""
+def mark_incomplete(path: str | Path) -> None:
+    """Flag a store as being written again (its damaged chunks are rewritten)."""
     import zarr
 
     with _quiet():
+        zarr.open_group(str(path), mode="r+").attrs[COMPLETE] = "false"
+
+
+def mark_complete(path: str | Path) -> None:
+    """The last write of a run: consolidate the store's metadata, then flag it complete.
+
+    In that order, so that a disk that fills during the final write leaves a store that says
+    it is incomplete (``--resume`` finishes it), never one marked complete without its
+    consolidated metadata. Zarr writes each metadata file atomically.
+    """
+    import zarr
+
+    with _quiet():
+        zarr.consolidate_metadata(str(path))
         root = zarr.open_group(str(path), mode="r+")
         root.attrs[COMPLETE] = "true"
-        zarr.consolidate_metadata(str(path))
 
 
 def beam_dimension(sweep: xr.Dataset) -> str:
@@ -524,14 +560,104 @@ class NotAStoreError(ValueError):
     """The path is not a finished PASIM-graph run."""
 
 
+@dataclass(frozen=True)
+class Damage:
+    """One damaged piece of a store: an array's chunk, or a node's metadata."""
+
+    node: str  # the array or group, relative to the store ("sweep_0/DBZH")
+    chunk: tuple[int, ...] | None  # the chunk's grid index; None: the node's metadata
+    why: str
+    beam_axis: int | None = None  # the array's beam dimension, when it has one
+
+    def __str__(self) -> str:
+        if self.chunk is None:
+            return f"{self.node}/zarr.json ({self.why})"
+        key = "/".join(["c", *map(str, self.chunk)])
+        return f"{self.node} chunk {key} ({self.why})"
+
+
+def check_chunks(path: str | Path) -> list[Damage]:
+    """Read every chunk of every array in a store and say which are damaged.
+
+    Chunks are written under a CRC-32C checksum and every chunk is written (empty ones too),
+    so a chunk file that was truncated, altered or removed after the run wrote it is found
+    here instead of being read as wrong numbers or NaN.
+    """
+    import itertools
+
+    import zarr
+
+    root = Path(path)
+    out: list[Damage] = []
+    for meta_path in sorted(root.rglob("zarr.json")):
+        node = meta_path.parent.relative_to(root).as_posix()
+        node = "" if node == "." else node
+        try:
+            meta = json.loads(meta_path.read_text())
+            if not isinstance(meta, dict) or meta.get("node_type") not in ("array", "group"):
+                raise ValueError("not Zarr v3 metadata")
+        except (OSError, ValueError) as exc:
+            out.append(Damage(node or ".", None, f"unreadable: {_short(exc)}"))
+            continue
+        if meta["node_type"] != "array":
+            continue
+        try:
+            arr = zarr.open_array(str(root), path=node, mode="r")
+        except Exception as exc:
+            out.append(Damage(node, None, f"cannot be opened: {_short(exc)}"))
+            continue
+        names = list(meta.get("dimension_names") or [])
+        beam_axis = next(
+            (names.index(d) for d in ("azimuth", "elevation", "time") if d in names), None
+        )
+        grid = [-(-n // c) for n, c in zip(arr.shape, arr.chunks, strict=True)]
+        for idx in itertools.product(*(range(g) for g in grid)):
+            chunk_file = meta_path.parent.joinpath("c", *map(str, idx))
+            if not chunk_file.is_file():
+                out.append(Damage(node, idx, "missing", beam_axis))
+                continue
+            try:
+                arr.get_block_selection(idx)
+            except Exception as exc:
+                out.append(Damage(node, idx, f"unreadable: {_short(exc)}", beam_axis))
+    return out
+
+
+def _short(exc: BaseException) -> str:
+    text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    if "checksum" in text.lower():
+        return "checksum mismatch"
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
+class DamagedStoreError(NotAStoreError):
+    """A finished store whose files were damaged after the run wrote them."""
+
+    def __init__(self, path: str | Path, damage: list[Damage]):
+        self.path, self.damage = Path(path), damage
+        shown = "; ".join(map(str, damage[:6]))
+        more = f"; and {len(damage) - 6} more" if len(damage) > 6 else ""
+        super().__init__(
+            f"{path} is damaged: {shown}{more}. Rewrite the damaged chunks with the run's own "
+            "command and --resume (graph, seed and options as stored), or run it again with "
+            "--overwrite"
+        )
+
+
 def open_sweep(path: str | Path) -> tuple[xr.Dataset, dict[str, Any]]:
     """The first sweep of a finished run and its root attributes.
 
     Raises :class:`NotAStoreError` naming the path when it is missing, not a store, or a run
-    that did not finish.
+    that did not finish, and :class:`DamagedStoreError` (a kind of it) naming each damaged
+    array and chunk when its files were damaged after they were written.
     """
     if not Path(path).exists():
         raise NotAStoreError(f"{path}: no such store")
+    state = run_state(path) if is_store(path) else None
+    if state is not None and state[0].get(COMPLETE) == "true":
+        damage = check_chunks(path)
+        if damage:
+            raise DamagedStoreError(path, damage)
     try:
         tree = open_volume(path)
     except IncompleteStoreError as exc:

@@ -1,0 +1,67 @@
+"""Stopping a long command cleanly on SIGINT (Ctrl-C) and SIGTERM.
+
+The first signal raises :class:`Stopped` in the main thread, where the command ends what it
+was doing, releases what it holds and says in one line what was finished and how to go on;
+its exit status is 128 + the signal's number (130, 143), as a shell reports a process killed
+by it. Further signals while it stops are ignored, so pressing Ctrl-C twice never turns a
+clean stop into a traceback.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+from collections.abc import Iterator
+from typing import Any
+
+#: Set when a stop was asked for in this process: work already running in other threads
+#: checks it and writes nothing more (a thread cannot be interrupted, only told).
+STOPPING = threading.Event()
+
+
+class Stopped(KeyboardInterrupt):
+    """A command was asked to stop by a signal."""
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + self.signum
+
+
+class StopMessage(Exception):
+    """A command that stopped, with what it finished: printed as one line, exit 128 + signal."""
+
+    def __init__(self, message: str, exit_code: int):
+        super().__init__(message)
+        self.exit_code = exit_code
+
+
+@contextlib.contextmanager
+def stop_on_signals() -> Iterator[None]:
+    """Within the block, SIGINT and SIGTERM raise :class:`Stopped` (once) in this thread."""
+    if threading.current_thread() is not threading.main_thread():
+        yield  # signal handlers can only be set from the main thread
+        return
+    stopping = False
+
+    def handler(signum: int, frame: Any) -> None:
+        nonlocal stopping
+        if stopping:
+            return
+        stopping = True
+        STOPPING.set()
+        raise Stopped(signum)
+
+    previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    STOPPING.clear()
+    try:
+        yield
+    finally:
+        for s, h in previous.items():
+            # After a stop the command is ending: later signals are ignored, not turned into
+            # a KeyboardInterrupt in the middle of its last message.
+            signal.signal(s, signal.SIG_IGN if stopping else h)

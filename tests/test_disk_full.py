@@ -1,0 +1,113 @@
+"""A disk that fills at any moment of a run ends it cleanly and loses nothing written.
+
+The fault is injected where zarr writes a file (``zarr.storage._local._put``, the one place
+its local store writes bytes): after N files an ``OSError(ENOSPC)``, as a full file system
+raises it. For N from the store's creation through its chunks to the final consolidation,
+the run exits 2 naming the store, the free space and the way on, with no traceback; the
+store is then either absent (nothing was kept) or incomplete and resumable; ``--resume``
+with the space back gives a store identical to an uninterrupted run's.
+"""
+
+from __future__ import annotations
+
+import errno
+import threading
+
+import numpy as np
+import pytest
+import xarray as xr
+import zarr.storage._local as zlocal
+
+from pasim_graph.cli import main
+from pasim_graph.store import is_store, run_state
+
+from .conftest import GRAPHS
+
+RUN = ["run", str(GRAPHS / "uniform_ideal.yaml"), "--set", "scan.azimuth_stop_deg=8"]
+RUN += ["--set", "scan.pulses=16", "--chunk", "2", "--seed", "4"]
+
+
+def pasim(capsys, *argv: str) -> tuple[int, str]:
+    try:
+        code = main(list(argv))
+    except SystemExit as exc:
+        code = exc.code
+    return code, capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    out = tmp_path_factory.mktemp("ref") / "ref.zarr"
+    assert main([*RUN, "--out", str(out)]) == 0
+    return out
+
+
+def count_writes(monkeypatch, tmp_path, capsys) -> int:
+    calls = [0]
+    real = zlocal._put
+
+    def counting(*args, **kwargs):
+        calls[0] += 1
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(zlocal, "_put", counting)
+    assert pasim(capsys, *RUN, "--out", str(tmp_path / "count.zarr"))[0] == 0
+    monkeypatch.setattr(zlocal, "_put", real)
+    return calls[0]
+
+
+class FullAfter:
+    """zarr's file write, failing with ENOSPC from the n-th call on (threads share it)."""
+
+    def __init__(self, n: int, real):
+        self.n, self.real, self.calls, self.lock = n, real, 0, threading.Lock()
+
+    def __call__(self, *args, **kwargs):
+        with self.lock:
+            self.calls += 1
+            hit = self.calls >= self.n
+        if hit:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return self.real(*args, **kwargs)
+
+
+def same(a, b) -> None:
+    x = xr.open_datatree(a, engine="zarr")["sweep_0"].to_dataset()
+    y = xr.open_datatree(b, engine="zarr")["sweep_0"].to_dataset()
+    assert sorted(x.data_vars) == sorted(y.data_vars)
+    for name in x.data_vars:
+        np.testing.assert_array_equal(x[name].values, y[name].values, err_msg=name)
+
+
+def test_disk_full_at_every_stage_exits_2_and_resume_completes(
+    reference, tmp_path, capsys, monkeypatch
+):
+    total = count_writes(monkeypatch, tmp_path, capsys)
+    assert total > 50
+    real = zlocal._put
+    # the first writes (the template), a spread through the chunks, and the very last ones
+    points = {1, 2, 5, total // 4, total - 2, total - 1, total}
+    points = sorted(points | {total * k // 10 for k in range(5, 10)})
+    outcomes = {"none kept": 0, "resumable": 0}
+    for n in points:
+        out = tmp_path / f"full{n}.zarr"
+
+        monkeypatch.setattr(zlocal, "_put", FullAfter(n, real))
+        code, err = pasim(capsys, *RUN, "--out", str(out))
+        monkeypatch.setattr(zlocal, "_put", real)
+        assert code == 2, f"write {n}: {err}"
+        assert "Traceback" not in err, err
+        assert f"{out}: the disk is full" in err and "free" in err, err
+        if out.exists() and is_store(out) and run_state(out) is not None:
+            outcomes["resumable"] += 1
+            assert "--resume" in err, err
+            assert run_state(out)[0].get("pasim_complete") != "true", f"write {n}"
+            code, err = pasim(capsys, *RUN, "--out", str(out), "--resume")
+            assert code == 0, f"resume after write {n}: {err}"
+            same(out, reference)
+        else:
+            outcomes["none kept"] += 1
+            assert "run it again" in err, err
+            assert pasim(capsys, *RUN, "--out", str(out))[0] == 0, f"rerun after write {n}"
+            same(out, reference)
+    assert outcomes["resumable"] >= 5, outcomes
