@@ -37,8 +37,23 @@ def _graph(args: argparse.Namespace) -> Graph:
 def _graph_and_overrides(args: argparse.Namespace) -> tuple[Graph, dict[str, Any]]:
     """The validated graph and the overrides (``--set``, ``--truth``, ``--sector``) it got."""
     spec = read(args.graph)
-    overrides, bad = parse_overrides(getattr(args, "set", None) or [])
+    items = getattr(args, "set", None) or []
+    overrides, bad = parse_overrides(items)
     problems = [Problem(spec.file, 0, "", f"--set {b}", "expected BLOCK.PARAM=VALUE") for b in bad]
+    seen: dict[str, str] = {}
+    for item in items:
+        key = item.partition("=")[0].strip()
+        if key in seen and "." in key:
+            problems.append(
+                Problem(
+                    spec.file,
+                    0,
+                    "",
+                    f"--set {item}",
+                    f"{key} is set twice (also --set {seen[key]})",
+                )
+            )
+        seen.setdefault(key, item)
     roles: dict[str, list[str]] = {}
     for name, b in spec.blocks.items():
         cls = registry.get(b.type)
@@ -60,18 +75,39 @@ def _graph_and_overrides(args: argparse.Namespace) -> tuple[Graph, dict[str, Any
             return None
         return names[0]
 
-    if getattr(args, "truth", None):
+    def conflict(option: str, key: str) -> bool:
+        if key in overrides:
+            problems.append(
+                Problem(spec.file, 0, "", option, f"sets {key} and so does --set {key}: give one")
+            )
+            return True
+        return False
+
+    truth_file = getattr(args, "truth", None)
+    if truth_file is not None and not str(truth_file).strip():
+        problems.append(
+            Problem(
+                spec.file,
+                0,
+                "",
+                "--truth",
+                "is empty (an unset shell variable?): give a radar file, or leave --truth out "
+                "for the graph's own truth",
+            )
+        )
+    elif truth_file is not None:
         block = by_role("truth", "--truth")
-        if block:
-            overrides.setdefault(f"{block}.path", str(args.truth))
-    if getattr(args, "sector", None):
+        if block and not conflict("--truth", f"{block}.path"):
+            overrides[f"{block}.path"] = str(truth_file)
+    if getattr(args, "sector", None) is not None:
         block = by_role("scan", "--sector")
         sector, problem = parse_sector(args.sector)
         if problem:
             problems.append(Problem(spec.file, 0, "", f"--sector {args.sector}", problem))
         elif block and sector:
-            overrides[f"{block}.azimuth_start_deg"] = sector[0]
-            overrides[f"{block}.azimuth_stop_deg"] = sector[1]
+            keys = (f"{block}.azimuth_start_deg", f"{block}.azimuth_stop_deg")
+            if not any([conflict("--sector", k) for k in keys]):
+                overrides[keys[0]], overrides[keys[1]] = sector
     try:
         graph = validate(spec, overrides)
     except GraphError as exc:
@@ -223,6 +259,14 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     graph = _graph(args)
     out = Path(args.out)
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    if args.workers and cores and args.workers > cores:
+        # Each worker is a process running one chunk at a time on one core: more workers than
+        # cores only add processes competing for them (1,000 on 2 cores ran until killed).
+        raise UserError(
+            f"--workers {args.workers}: this machine gives the run {cores} cores; use at most "
+            f"{cores} (or --scheduler ADDRESS for a cluster's workers)"
+        )
     if args.scheduler:
         try:
             check_scheduler(args.scheduler)
@@ -715,6 +759,13 @@ def main(argv: list[str] | None = None) -> int:
         except KeyboardInterrupt:
             print("interrupted", file=sys.stderr)
             return 130
+        except FileNotFoundError as exc:
+            if exc.filename is None:
+                raise
+            # An output in a folder that does not exist (plot --out, graph --out, ...).
+            where = Path(str(exc.filename)).parent
+            why = f"the folder {where} does not exist" if not where.is_dir() else "no such file"
+            print(f"error: {exc.filename}: {why}", file=sys.stderr)
         except BrokenPipeError:
             # The reader went away (`pasim score ... | head`): not an error of ours. Point
             # stdout at nothing so the interpreter's final flush cannot fail again.

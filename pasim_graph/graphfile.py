@@ -96,18 +96,51 @@ class GraphSpec:
 
 
 class _Loader(yaml.SafeLoader):
-    """SafeLoader that also reads ``1e-6`` and ``3e3`` as floats (YAML 1.2 style)."""
+    """SafeLoader with YAML 1.2 core-schema scalars.
 
+    PyYAML follows YAML 1.1, where ``1_0`` is the integer 10, ``4:40`` the sexagesimal 280,
+    ``010`` octal 8 and ``on``/``no`` booleans: a typo became another number without a word.
+    Here integers are ``[-+]?[0-9]+`` (and ``0x``/``0o``), floats as YAML 1.2 writes them (``1e-6``
+    included), booleans ``true``/``false``; anything else stays text, which a parameter's
+    check then refuses by name.
+    """
+
+
+_Loader.yaml_implicit_resolvers = {
+    first: [(tag, rx) for tag, rx in resolvers if not tag.endswith((":int", ":float", ":bool"))]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
 
 _FLOAT = re.compile(
-    r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
-    |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
-    |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+    r"""^(?:[-+]?(?:[0-9]+)\.[0-9]*(?:[eE][-+]?[0-9]+)?
+    |[-+]?(?:[0-9]+)(?:[eE][-+]?[0-9]+)
+    |[-+]?\.[0-9]+(?:[eE][-+]?[0-9]+)?
     |[-+]?\.(?:inf|Inf|INF)
     |\.(?:nan|NaN|NAN))$""",
     re.X,
 )
+_INT = re.compile(r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$")
+_BOOL = re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$")
 _Loader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456789."))
+_Loader.add_implicit_resolver("tag:yaml.org,2002:int", _INT, list("-+0123456789"))
+_Loader.add_implicit_resolver("tag:yaml.org,2002:bool", _BOOL, list("tTfF"))
+
+
+def _construct_int(loader: yaml.SafeLoader, node: yaml.Node) -> int:
+    text = str(loader.construct_scalar(node))  # type: ignore[arg-type]
+    if text.startswith(("0o", "0x")):
+        return int(text, 0)
+    return int(text, 10)  # leading zeros are decimal in YAML 1.2 (``010`` is 10)
+
+
+_Loader.add_constructor("tag:yaml.org,2002:int", _construct_int)
+
+#: Graph files are a few kilobytes; a bound keeps a wrong path (a disk image, /dev/zero)
+#: from being read whole.
+MAX_GRAPH_BYTES = 1 << 20
+#: Deeper nesting than a graph file ever needs (blocks > name > params > value) is refused
+#: before it is built.
+MAX_DEPTH = 32
 
 
 class _Dumper(yaml.SafeDumper):
@@ -152,12 +185,32 @@ def parse_value(text: str) -> Any:
 
 def read(path: str | Path) -> GraphSpec:
     """Read a graph file; problems (unreadable, malformed) are recorded, never raised."""
+    import os
+    import stat
+
     path = Path(path)
     try:
-        data = path.read_bytes()
+        # O_NONBLOCK: opening a FIFO with no writer must not hang; a FIFO or device is then
+        # refused by its type before anything is read.
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        try:
+            if not stat.S_ISREG(os.fstat(fd).st_mode):
+                spec = GraphSpec(file=str(path))
+                spec.problem(
+                    0, "not a regular file (a FIFO, device or socket): expected a graph file"
+                )
+                return spec
+            with os.fdopen(fd, "rb", closefd=False) as f:
+                data = f.read(MAX_GRAPH_BYTES + 1)
+        finally:
+            os.close(fd)
     except OSError as exc:
         spec = GraphSpec(file=str(path))
         spec.problem(0, f"cannot read graph file: {exc.strerror or exc}")
+        return spec
+    if len(data) > MAX_GRAPH_BYTES:
+        spec = GraphSpec(file=str(path))
+        spec.problem(0, f"larger than {MAX_GRAPH_BYTES // 1024} KiB: not a graph file")
         return spec
     try:
         text = data.decode("utf-8")
@@ -175,6 +228,8 @@ def read(path: str | Path) -> GraphSpec:
 
 def parse(text: str, file: str = "<graph>") -> GraphSpec:
     spec = GraphSpec(file=file)
+    if _refuse_structure(spec, text):
+        return spec
     try:
         root = yaml.compose(text, Loader=_Loader)
         # Composing lets through tags the safe loader refuses to construct (!!python/...);
@@ -222,6 +277,31 @@ def parse(text: str, file: str = "<graph>") -> GraphSpec:
     if "connections" in sections:
         _read_connections(spec, sections["connections"][1])
     return spec
+
+
+def _refuse_structure(spec: GraphSpec, text: str) -> bool:
+    """Refuse anchors and aliases (a graph file needs none, and nested aliases expand
+    exponentially: the "billion laughs") and nesting deeper than :data:`MAX_DEPTH`, from the
+    event stream, before any node is built."""
+    depth = 0
+    try:
+        for event in yaml.parse(text, Loader=_Loader):
+            line = event.start_mark.line + 1 if event.start_mark else 0
+            if isinstance(event, yaml.AliasEvent) or getattr(event, "anchor", None):
+                spec.problem(
+                    line, "anchors and aliases (&name, *name) are not allowed in graph files"
+                )
+                return True
+            if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+                depth += 1
+                if depth > MAX_DEPTH:
+                    spec.problem(line, f"nested deeper than {MAX_DEPTH} levels: not a graph file")
+                    return True
+            elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+                depth -= 1
+    except yaml.YAMLError:
+        return False  # malformed: compose says where, below
+    return False
 
 
 def _first(node: yaml.MappingNode) -> dict[Any, tuple[yaml.Node, yaml.Node]]:

@@ -187,6 +187,26 @@ def _read_lock(fd: int) -> dict[str, Any]:
         return {}
 
 
+def current_writer(store: str | Path) -> dict[str, Any] | None:
+    """Who is writing a store now (what its lock file says), or None when no run holds it."""
+    import fcntl
+    import os
+
+    try:
+        fd = os.open(Path(store) / LOCK, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except OSError:
+            return _read_lock(fd)  # held: a run is writing
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return None
+    finally:
+        os.close(fd)
+
+
 def describe_holder(holder: dict[str, Any]) -> str:
     """Who holds (or held) a store's lock, as the lock file says, in words."""
     if not holder:
@@ -677,6 +697,12 @@ def open_volume(path: str | Path) -> xr.DataTree:
     state = run_state(path)
     if state is not None and state[0].get(COMPLETE) != "true":
         done = int(state[1].sum())
+        writer = current_writer(path)
+        if writer is not None:
+            raise IncompleteStoreError(
+                f"{path} is being written now ({done} of {state[1].size} chunks so far) by "
+                f"{describe_holder(writer)}; wait for it to finish"
+            )
         raise IncompleteStoreError(
             f"{path}: the run did not finish ({done} of {state[1].size} chunks written); "
             "complete it with `pasim run ... --resume`"

@@ -111,3 +111,31 @@ def test_disk_full_at_every_stage_exits_2_and_resume_completes(
             assert pasim(capsys, *RUN, "--out", str(out))[0] == 0, f"rerun after write {n}"
             same(out, reference)
     assert outcomes["resumable"] >= 5, outcomes
+
+
+@pytest.fixture
+def tmpfs_3mb(tmp_path):
+    """A real 3 MB file system (tmpfs), where this machine lets the tests mount one."""
+    import subprocess
+
+    mnt = tmp_path / "tmpfs"
+    mnt.mkdir()
+    res = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", str(mnt)], capture_output=True
+    )
+    if res.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {res.stderr.decode().strip()}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", str(mnt)], check=False)
+
+
+def test_a_run_that_cannot_fit_a_3_mb_disk_is_refused_before_work(tmpfs_3mb, capsys):
+    """The generic radar's 90 beams write 3.9 MB: refused with the estimate, nothing left."""
+    out = tmpfs_3mb / "run.zarr"
+    code, err = pasim(capsys, "run", str(GRAPHS / "generic_radar.yaml"), "--out", str(out))
+    assert code == 2, err
+    assert "this run would write about" in err and "MiB is free there" in err, err
+    assert "Traceback" not in err
+    assert not out.exists()
