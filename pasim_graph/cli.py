@@ -319,8 +319,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.debug:
             raise
         raise UserError(f"{args.graph}: {exc} (rerun with --debug for the traceback)") from None
-    except (StoreError, StoreExistsError, ResumeError, ResourceError) as exc:
-        raise UserError(str(exc)) from None
+    except (StoreError, StoreExistsError, ResumeError, ResourceError, SchedulerError) as exc:
+        raise UserError(f"{out}: {exc}" if isinstance(exc, SchedulerError) else str(exc)) from None
     dt = time.perf_counter() - t0
     print(
         f"wrote {out} in {dt:.1f} s (set-up {report.seconds_setup:.1f} s, {report.chunks_run} "

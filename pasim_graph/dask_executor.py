@@ -640,7 +640,15 @@ class DaskExecutor:
                 pool.shutdown(wait=True, cancel_futures=True)
 
     def _connect(self) -> Any:
+        import logging
+
         from distributed import Client, LocalCluster
+
+        # distributed logs a lost connection as an ERROR with its traceback, on this
+        # process's stderr; the run says what happened in one line of its own instead.
+        for name in ["distributed", *logging.root.manager.loggerDict]:
+            if name.startswith("distributed"):
+                logging.getLogger(name).setLevel(logging.CRITICAL)
 
         if self.scheduler and self.scheduler not in LOCAL_SCHEDULERS:
             client = Client(self.scheduler, timeout="10s")
@@ -685,8 +693,22 @@ class DaskExecutor:
             client.submit(_run_and_write, local, shared, starts[i], i, path, attrs, key=keys[i])
             for i in todo
         ]
-        if self.progress:
-            progress(futures)
-        wait(futures)
-        for f in futures:
-            f.result()  # re-raise a failed chunk's error here
+        from distributed.client import FuturesCancelledError
+        from distributed.comm.core import CommClosedError
+
+        try:
+            if self.progress:
+                progress(futures)
+            wait(futures)
+            for f in futures:
+                f.result()  # re-raise a failed chunk's error here
+        except (FuturesCancelledError, CommClosedError, TimeoutError) as exc:
+            # The scheduler went away (or the client lost it): the chunks written so far are
+            # kept and flagged; the rest are run by --resume, on this cluster or another.
+            if client.status == "running" and not isinstance(exc, FuturesCancelledError):
+                raise
+            where = self.scheduler or "the local cluster"
+            raise SchedulerError(
+                f"lost the connection to the scheduler ({where}) during the run; the chunks "
+                "written are kept: complete the store with --resume (any cluster, or none)"
+            ) from None

@@ -73,3 +73,27 @@ def test_a_signalled_run_ends_cleanly_and_resumes(tmp_path, reference, capsys, s
     assert f" {kept} of " in err, err
     assert main([*RUN, "--out", str(out), "--resume"]) == 0
     same(out, reference)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=str)
+def test_the_studio_stops_on_a_signal_with_one_line(sig, tmp_path):
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pasim_graph", "studio", str(GRAPHS), "--port", "0"],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        for line in proc.stdout:
+            if "http://127.0.0.1:" in line:
+                break
+        else:
+            pytest.fail(f"the studio did not start: {proc.stderr.read()}")
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 128 + sig, err
+    assert f"studio stopped by {signal.Signals(sig).name}" in err and "Traceback" not in err, err

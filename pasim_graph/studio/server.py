@@ -21,7 +21,6 @@ import json
 import mimetypes
 import re
 import secrets
-import signal
 import sys
 import tempfile
 import threading
@@ -32,6 +31,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
+from ..interrupt import Stopped, stop_on_signals
 from . import documents as docs
 from .documents import Folder, RequestError
 from .runs import Runs
@@ -510,14 +510,15 @@ def serve(
 
         webbrowser.open(server.url)
 
-    def stop(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt  # a terminated studio cleans up as an interrupted one does
-
-    signal.signal(signal.SIGTERM, stop)
     try:
-        server.serve_forever()
-    except KeyboardInterrupt:
-        print("studio stopped", file=sys.stderr)
+        with stop_on_signals():
+            server.serve_forever()
+    except Stopped as exc:
+        # Runs in progress are cancelled and their stores removed with the studio's folder
+        # (or kept, under --runs DIR, for --resume).
+        kept = f"; runs kept in {server.runs.dir}" if not server.temporary_runs else ""
+        print(f"studio stopped by {exc}{kept}", file=sys.stderr)
+        return exc.exit_code
     finally:
         server.server_close()
         server.runs.close(remove=server.temporary_runs)
