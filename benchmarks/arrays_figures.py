@@ -32,7 +32,7 @@ def db(x):
 
 
 def system_table(out: Path) -> list[dict]:
-    from pasim_blocks.pattern_command import build, measure
+    from pasim_blocks.commands.pattern import build, measure
 
     from pasim_graph import load
 
@@ -80,8 +80,8 @@ def plot_impaired(out: Path) -> dict:
     """Paper figure 5: the 10 m CPPAR with C2C errors and failures, and with 5-bit phase
     shifters, against the ideal array; the 20-seed mean sidelobe level against Mailloux."""
     import matplotlib.pyplot as plt
-    from pasim_blocks.cylindrical import CylindricalArray
-    from pasim_blocks.patterns import taper_efficiency
+    from pasim_blocks.antennas.cylindrical import CylindricalArray
+    from pasim_blocks.antennas.tapers import taper_efficiency
 
     d = np.arange(-90.0, 90.0001, 0.02)
     variants = {
@@ -140,7 +140,7 @@ def plot_impaired(out: Path) -> dict:
 
 def plot_quantisation_lobes(out: Path) -> None:
     import matplotlib.pyplot as plt
-    from pasim_blocks.antenna import PlanarPatchArray
+    from pasim_blocks.antennas.planar import PlanarPatchArray
 
     d = np.arange(-85.0, 85.0, 0.02)
     keep = np.abs(20 + d) < 89
@@ -169,9 +169,9 @@ def plot_quantisation_lobes(out: Path) -> None:
 
 def plot_zdr_bias(out: Path) -> dict:
     import matplotlib.pyplot as plt
-    from pasim_blocks.antenna import PlanarPatchArray
-    from pasim_blocks.cylindrical import CylindricalArray
-    from pasim_blocks.pattern_command import measure
+    from pasim_blocks.antennas.cylindrical import CylindricalArray
+    from pasim_blocks.antennas.planar import PlanarPatchArray
+    from pasim_blocks.commands.pattern import measure
 
     steers = np.arange(0.0, 46.0, 5.0)
     curves = {}

@@ -99,7 +99,7 @@ def timing(args: argparse.Namespace, emit) -> None:
     sys.path.insert(0, str(Path(args.before).resolve().parent))
     old_name = Path(args.before).name
     old = importlib.import_module(f"{old_name}.weather").WeatherChannel
-    from pasim_blocks.weather import WeatherChannel
+    from pasim_blocks.weather.channel import WeatherChannel
 
     def process(cls, captured, params):
         block = cls(name="weather", **params)

@@ -29,8 +29,9 @@ IMPAIRED = {
 
 
 def cases():
-    from pasim_blocks.antenna import PencilBeamAntenna, PlanarPatchArray
-    from pasim_blocks.cylindrical import CylindricalArray
+    from pasim_blocks.antennas.cylindrical import CylindricalArray
+    from pasim_blocks.antennas.pencil import PencilBeamAntenna
+    from pasim_blocks.antennas.planar import PlanarPatchArray
 
     return [
         ("pencil (generic)", PencilBeamAntenna, {}),

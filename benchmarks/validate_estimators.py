@@ -5,7 +5,7 @@
 For every point of the grid M in {32, 128}, width in {2, 4} m/s, SNR in {10, 30} dB, rho_hv in
 {0.9, 0.98} (PRT 1 ms, 2.8 GHz, 30 dBZ, ZDR 1 dB, phi_DP 30 deg, 5 m/s) it runs
 `pasim run graphs/uniform_ideal.yaml` with those settings, reads `pasim score --json`, and
-compares each moment's bias and std with `pasim_blocks.theory.estimator_statistics` (exact
+compares each moment's bias and std with `tests.reference.theory.estimator_statistics` (exact
 Gaussian moments + delta method). Prints Markdown tables and writes the rows as JSON.
 """
 
@@ -73,7 +73,8 @@ def run_point(pulses, width, snr, rho, method, seed=0):
 
 
 def main() -> None:
-    from pasim_blocks.theory import (
+    sys.path.insert(0, str(ROOT))  # the reference theory sits beside the tests
+    from tests.reference.theory import (
         compare_with_reference,
         estimator_statistics,
         monte_carlo_statistics,

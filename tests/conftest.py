@@ -31,7 +31,7 @@ def run_cli(
 def truth_dataset():
     """The bundled scene as the truth block hands it on."""
     import numpy as np
-    from pasim_blocks.truth import NexradTruth
+    from pasim_blocks.truth.nexrad import NexradTruth
 
     from pasim_graph import Chunk
 

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.signal
-from pasim_blocks.matched_filter import MatchedFilter
+from pasim_blocks.receivers.filters import MatchedFilter
 from pasim_blocks.signals import SPEED_OF_LIGHT
-from pasim_blocks.waveform import RectangularPulse, pulse_dataset
+from pasim_blocks.waveforms.pulses import RectangularPulse, pulse_dataset
 
 from pasim_graph import Chunk
 

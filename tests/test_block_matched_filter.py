@@ -24,9 +24,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pasim_blocks.amplifier import SalehAmplifier
-from pasim_blocks.matched_filter import MatchedFilter
-from pasim_blocks.waveform import RectangularPulse, pulse_dataset
+from pasim_blocks.receivers.filters import MatchedFilter
+from pasim_blocks.transmitters.amplifiers import SalehAmplifier
+from pasim_blocks.waveforms.pulses import RectangularPulse, pulse_dataset
 
 from pasim_graph import Chunk
 
@@ -217,7 +217,7 @@ def lfm(fs: float = 7.2e6, band: float = 3.6e6, width: float = 50e-6) -> np.ndar
 
 
 def mismatched(tx: np.ndarray, ref: np.ndarray, fs: float = 7.2e6, **params):
-    from pasim_blocks.matched_filter import MismatchedFilter
+    from pasim_blocks.receivers.filters import MismatchedFilter
 
     inputs = {
         "pulse": pulse_dataset(tx, fs),
@@ -281,7 +281,7 @@ def test_taylor_weighting_brings_lfm_sidelobes_to_the_window_level(domain: str) 
     mainlobe staying at zero offset. Weighting in time: within 2.5 dB (stationary phase, finite
     time-bandwidth product). Weighting in frequency leaves the Fresnel ripple of the LFM's own
     spectrum (TB 180) in the output: -36.7 dB measured, so only -35 dB or lower is asked."""
-    from pasim_blocks.compression import sidelobes
+    from pasim_blocks.waveforms.compression import sidelobes
 
     s = lfm()
     dx = C / (2 * 7.2e6)
@@ -320,7 +320,7 @@ def test_frequency_weighted_filter_agrees_with_fast_time_simulation() -> None:
 
 
 def test_frequency_weighting_needs_a_band() -> None:
-    from pasim_blocks.matched_filter import MismatchedFilter
+    from pasim_blocks.receivers.filters import MismatchedFilter
 
     s = lfm()
     inputs = {"pulse": pulse_dataset(s, 7.2e6), "reference": pulse_dataset(s, 7.2e6)}

@@ -6,7 +6,7 @@ What each test compares against:
   simulator's weather channel, by Cholesky colouring with numpy of a Gaussian-spectrum
   process (known power, mean velocity, spectrum width) and a V channel with known ZDR, rho_hv
   and phi_DP, plus white noise of known power. The truth is what went in. The expected mean
-  and standard deviation of every estimate come from ``pasim_blocks.theory``: the second-order
+  and standard deviation of every estimate come from ``tests.reference.theory``: the second-order
   delta method on the exact second moments (Isserlis' theorem) of the lag-0, lag-1 and H-V
   sample correlations (itself tested against brute-force traces and a Monte Carlo in
   ``test_theory.py``). Its first-order variance is the perturbation result of Doviak & Zrnic
@@ -39,11 +39,11 @@ import warnings
 import numpy as np
 import pytest
 import xarray as xr
-from pasim_blocks.ppp import PulsePairProcessor, pulse_pair
-from pasim_blocks.scan import PPISector
-from pasim_blocks.theory import pulse_pair_statistics
+from pasim_blocks.processing.pulse_pair import PulsePairProcessor, pulse_pair
+from pasim_blocks.scans.ppi import PPISector
 
 from pasim_graph import Chunk
+from tests.reference.theory import pulse_pair_statistics
 
 C = 299_792_458.0
 WAVELENGTH_M = C / 2.8e9  # paper Table 4: 2800 MHz
@@ -340,7 +340,7 @@ def test_alternate_estimators_on_exact_correlations() -> None:
     R1_VH = its conjugate pair times r(1), with r(l) = exp(-8 (pi w l T / lambda)^2)
     exp(-j 4 pi v l T / lambda). Velocity folds into the halved Nyquist interval lambda/(8T);
     phi_DP comes modulo 180 deg."""
-    from pasim_blocks.ppp import alternate_moments
+    from pasim_blocks.processing.pulse_pair import alternate_moments
 
     for v, w, phi in ((3.0, 2.0, 30.0), (5.0, 1.0, 250.0), (-1.5, 3.5, 120.0)):
         s_h, zdr, rho = 2.0, 1.7, 0.97
@@ -373,7 +373,7 @@ def test_alternate_estimators_on_drawn_iq() -> None:
     over the gates agree with the truth within 5 standard errors (empirical, from the spread)
     plus a finite-dwell allowance of 1 % of the width and 0.003 of rho_hv (estimators of
     ratios of sample correlations are biased at order 1/M)."""
-    from pasim_blocks.ppp import alternate_correlations, alternate_moments
+    from pasim_blocks.processing.pulse_pair import alternate_correlations, alternate_moments
 
     truth = {**CASES["snr20"], "PHIDP": 100.0}
     h, v = ahv_iq(truth, N_GATES, 128, seed=31)

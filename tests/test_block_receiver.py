@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 import scipy.constants
 import xarray as xr
-from pasim_blocks.receiver import Receiver
+from pasim_blocks.receivers.receiver import Receiver
 
 from pasim_graph import Chunk
 

@@ -15,7 +15,7 @@ What each test compares against:
   here) at the steered beam axis, where the array factor equals its broadside peak, so the
   one-way H and V powers are the element's; and the aperture directivity
   10 log10(4 pi A / lambda^2 eta) with the Taylor taper from scipy.signal.windows.taylor
-  (and ``pasim_blocks.patterns.planar_array_directivity_db``).
+  (and ``pasim_blocks.antennas.array_factor.planar_array_directivity_db``).
 """
 
 from __future__ import annotations
@@ -23,9 +23,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
-from pasim_blocks.antenna import PencilBeamAntenna, PlanarPatchArray
-from pasim_blocks.patterns import PencilBeam, planar_array_directivity_db
-from pasim_blocks.scan import PPISector
+from pasim_blocks.antennas.aperture import PencilBeam
+from pasim_blocks.antennas.array_factor import planar_array_directivity_db
+from pasim_blocks.antennas.pencil import PencilBeamAntenna
+from pasim_blocks.antennas.planar import PlanarPatchArray
+from pasim_blocks.scans.ppi import PPISector
 from scipy import integrate
 from scipy.signal.windows import taylor
 

@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 import xarray as xr
 from pasim_blocks.angles import circular_difference
-from pasim_blocks.scan import PPISector
-from pasim_blocks.scorer import NexradScorer
+from pasim_blocks.processing.scorer import NexradScorer
+from pasim_blocks.scans.ppi import PPISector
 
 from pasim_graph import Chunk
 from pasim_graph.store import summarize

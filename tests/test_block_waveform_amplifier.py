@@ -18,8 +18,8 @@ import itertools
 
 import numpy as np
 import pytest
-from pasim_blocks.amplifier import IdealAmplifier, SalehAmplifier
-from pasim_blocks.waveform import RectangularPulse, pulse_dataset
+from pasim_blocks.transmitters.amplifiers import IdealAmplifier, SalehAmplifier
+from pasim_blocks.waveforms.pulses import RectangularPulse, pulse_dataset
 
 from pasim_graph import Chunk
 
@@ -191,7 +191,7 @@ def test_lfm_sweeps_the_band_linearly(oversampling: float, rate: float | None) -
     """Constant amplitude, and the phase step between samples is slope x (interval midpoint)
     with slope B / T (exact for a quadratic phase), sweeping -B/2 to +B/2; the rate is the
     one given, else oversampling x bandwidth."""
-    from pasim_blocks.waveform import LinearFM
+    from pasim_blocks.waveforms.pulses import LinearFM
 
     pulse = make(LinearFM, oversampling=oversampling, sample_rate_hz=rate)
     fs = rate if rate is not None else oversampling * B_HZ
@@ -218,7 +218,7 @@ def test_lfm_window_is_scipys(window: str, params: dict) -> None:
     """The envelope's amplitude is scipy.signal.windows' window (peak 1) and its phase the
     plain LFM's."""
     import scipy.signal.windows as windows
-    from pasim_blocks.waveform import LinearFM
+    from pasim_blocks.waveforms.pulses import LinearFM
 
     plain = make(LinearFM)["envelope"].values
     env = make(LinearFM, window=window, **params)["envelope"].values
@@ -235,7 +235,7 @@ def test_lfm_window_is_scipys(window: str, params: dict) -> None:
 def test_sample_rate_below_bandwidth_is_a_named_problem() -> None:
     """check_config refuses a complex sample rate below the bandwidth (Nyquist), naming the
     parameter; 1.5x is allowed when given explicitly."""
-    from pasim_blocks.waveform import LinearFM, NonlinearFM
+    from pasim_blocks.waveforms.pulses import LinearFM, NonlinearFM
 
     for cls in (LinearFM, NonlinearFM):
         problems = cls.check_config({"sample_rate_hz": 3.0e6}, set())
@@ -250,7 +250,7 @@ def test_gaussian_nlfm_follows_the_stationary_phase_law(sigma: float) -> None:
     """Constant envelope, and the frequency law is the closed form of a Gaussian density
     truncated to the band (scipy.stats.norm), within 0.5 % of B (the phase step is the mean
     over a sample interval, which departs from the midpoint value where the law is steep)."""
-    from pasim_blocks.waveform import NonlinearFM
+    from pasim_blocks.waveforms.pulses import NonlinearFM
     from scipy.stats import norm
 
     pulse = make(NonlinearFM, design="gaussian", density_std_fraction=sigma)
@@ -270,7 +270,7 @@ def test_gaussian_nlfm_spectrum_is_the_density() -> None:
     spectrum is within 1 dB of the density where the density is above -13 dB. Further out the
     sweep is fast and stationary phase only approximate: in the two outermost bins (density
     -13.4 and -17.2 dB) the spectrum is 1.8 and 1.9 dB below it."""
-    from pasim_blocks.waveform import NonlinearFM
+    from pasim_blocks.waveforms.pulses import NonlinearFM
 
     sigma = 0.15
     pulse = make(NonlinearFM, design="gaussian", density_std_fraction=sigma)
@@ -293,8 +293,8 @@ def test_optimised_nlfm_is_the_shipped_design() -> None:
     """The optimised design's envelope has the shipped Tukey taper: its power efficiency is
     1 - 5 a / 8 (theory of the Tukey window, to the sampling), and the block's pulse is the
     design module's envelope."""
-    from pasim_blocks.nlfm import load_optimised, optimised_envelope
-    from pasim_blocks.waveform import NonlinearFM
+    from pasim_blocks.waveforms.nlfm import load_optimised, optimised_envelope
+    from pasim_blocks.waveforms.pulses import NonlinearFM
 
     design = load_optimised()
     pulse = make(NonlinearFM, design="optimised")
@@ -307,7 +307,7 @@ def test_optimised_nlfm_is_the_shipped_design() -> None:
 def test_optimised_nlfm_at_another_time_bandwidth_says_so() -> None:
     """The optimum holds for the design's time-bandwidth product; another one runs with a
     note."""
-    from pasim_blocks.waveform import NonlinearFM
+    from pasim_blocks.waveforms.pulses import NonlinearFM
 
     from pasim_graph import RunNote
 
@@ -318,7 +318,7 @@ def test_optimised_nlfm_at_another_time_bandwidth_says_so() -> None:
 def test_file_waveform_round_trip(tmp_path) -> None:
     """An .npz with envelope and sample_rate_hz comes back scaled to peak 1, same shape and
     phase, at its sample rate; bandwidth_hz is passed on when the file has it."""
-    from pasim_blocks.waveform import FileWaveform
+    from pasim_blocks.waveforms.pulses import FileWaveform
 
     rng = np.random.default_rng(5)
     env = (rng.standard_normal(50) + 1j * rng.standard_normal(50)) * 3.0
@@ -345,7 +345,7 @@ def test_file_waveform_round_trip(tmp_path) -> None:
 )
 def test_file_waveform_bad_contents_are_named(tmp_path, contents: dict, words: list) -> None:
     """load() refuses a file without the two arrays, or with bad ones, saying which."""
-    from pasim_blocks.waveform import FileWaveform
+    from pasim_blocks.waveforms.pulses import FileWaveform
 
     path = tmp_path / "bad.npz"
     np.savez(path, **contents)
@@ -356,7 +356,7 @@ def test_file_waveform_bad_contents_are_named(tmp_path, contents: dict, words: l
 
 
 def test_file_waveform_not_npz(tmp_path) -> None:
-    from pasim_blocks.waveform import FileWaveform
+    from pasim_blocks.waveforms.pulses import FileWaveform
 
     path = tmp_path / "pulse.npz"
     path.write_text("not a numpy archive")
@@ -375,7 +375,7 @@ def test_rapp_follows_its_formula_and_keeps_the_phase(p: float, backoff_db: floa
     """A shaped, phase-modulated drive: each sample's amplitude follows Rapp's AM/AM at its
     own drive level (peak 10^(-backoff/20) of the saturation input) and its phase is
     unchanged (the model has no AM/PM)."""
-    from pasim_blocks.amplifier import RappAmplifier
+    from pasim_blocks.transmitters.amplifiers import RappAmplifier
 
     n = np.arange(64)
     amp = 0.05 + 0.95 * np.sin(np.pi * (n + 0.5) / 64)
@@ -392,7 +392,7 @@ def test_rapp_limits() -> None:
     """Theory: at the saturation input the output is 2^(-1/(2p)) (3.01/p dB below the rated
     power); the small-signal gain is 1; as p grows the model becomes a hard limiter
     min(r, 1); the output never exceeds the saturation level."""
-    from pasim_blocks.amplifier import RappAmplifier
+    from pasim_blocks.transmitters.amplifiers import RappAmplifier
 
     def out(env: np.ndarray, **kw: float) -> np.ndarray:
         block = RappAmplifier(name="hpa", **kw)

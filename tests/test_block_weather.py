@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
-from pasim_blocks.antenna import PencilBeamAntenna
-from pasim_blocks.matched_filter import MatchedFilter
-from pasim_blocks.ppp import pulse_pair
-from pasim_blocks.scan import PPISector
+from pasim_blocks.antennas.pencil import PencilBeamAntenna
+from pasim_blocks.processing.pulse_pair import pulse_pair
+from pasim_blocks.receivers.filters import MatchedFilter
+from pasim_blocks.scans.ppi import PPISector
 from pasim_blocks.signals import SPEED_OF_LIGHT
-from pasim_blocks.waveform import RectangularPulse
-from pasim_blocks.weather import WeatherChannel
+from pasim_blocks.waveforms.pulses import RectangularPulse
+from pasim_blocks.weather.channel import WeatherChannel
 
 from pasim_graph import Chunk
 

@@ -21,10 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pasim_blocks.antenna import PlanarPatchArray
-from pasim_blocks.ppp import PulsePairProcessor
+from pasim_blocks.antennas.planar import PlanarPatchArray
+from pasim_blocks.processing.pulse_pair import PulsePairProcessor
 from pasim_blocks.signals import SPEED_OF_LIGHT
-from pasim_blocks.weather import WeatherChannel
+from pasim_blocks.weather.channel import WeatherChannel
 
 from pasim_graph import Chunk
 
@@ -298,7 +298,7 @@ def test_planar_zdr_bias_grows_with_steering_and_is_the_two_way_ratio() -> None:
     sin(el_b) tan(az_s)), g the one-way V/H amplitude ratio at the peak, checked within 10 %
     on DBZH (SHV minus AHV), with a random level (combined) at 45 deg within 3 standard
     errors."""
-    from pasim_blocks.pattern_command import measure
+    from pasim_blocks.commands.pattern import measure
 
     block = PlanarPatchArray(**PLANAR)
     steers = np.array([0.0, 15.0, 30.0, 45.0])
@@ -324,7 +324,7 @@ def test_cylinder_zdr_bias_is_the_same_at_every_azimuth() -> None:
     every 11.3 deg over 240-330 (columns commutated with the beam): the ZDR bias through the
     weather channel spreads by less than 0.02 dB over azimuth in SHV and AHV (measured 1e-4
     dB), and the uncalibrated two-way H/V ratio is the same everywhere."""
-    from pasim_blocks.cylindrical import CylindricalArray
+    from pasim_blocks.antennas.cylindrical import CylindricalArray
 
     block = CylindricalArray(
         name="antenna",

@@ -20,9 +20,9 @@ import pickle
 import numpy as np
 import pytest
 import xarray as xr
-from pasim_blocks.antenna import PlanarPatchArray
-from pasim_blocks.cylindrical import CylindricalArray, taylor_continuous
-from pasim_blocks.patterns import first_sidelobe_db, half_power_beamwidth_deg
+from pasim_blocks.antennas.cylindrical import CylindricalArray, taylor_continuous
+from pasim_blocks.antennas.measures import first_sidelobe_db, half_power_beamwidth_deg
+from pasim_blocks.antennas.planar import PlanarPatchArray
 from scipy.signal.windows import taylor
 
 from pasim_graph import Chunk

@@ -22,10 +22,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pasim_blocks.antenna import PlanarPatchArray
-from pasim_blocks.cylindrical import CylindricalArray
-from pasim_blocks.electronics import ChannelModel, array_rng
-from pasim_blocks.patterns import peak_sidelobe_db, taper_efficiency
+from pasim_blocks.antennas.cylindrical import CylindricalArray
+from pasim_blocks.antennas.electronics import ChannelModel, array_rng
+from pasim_blocks.antennas.measures import peak_sidelobe_db
+from pasim_blocks.antennas.planar import PlanarPatchArray
+from pasim_blocks.antennas.tapers import taper_efficiency
 
 C = 299_792_458.0
 LAMBDA = C / 2.8e9
@@ -224,7 +225,8 @@ def test_quantisation_lobes_and_randomisation() -> None:
     leaves is a random floor: averaged over 4 seeds, the excess power beyond 15 deg is
     sigma_q^2 / (N eta) |E(theta)|^2 / |E(20 deg)|^2 within 2 dB (N = 640, eta the two
     tapers' efficiency, E the patch's H co-polar field; measured 0.5 dB below)."""
-    from pasim_blocks.patterns import patch_element_field, taylor_taper
+    from pasim_blocks.antennas.geometry import patch_element_field
+    from pasim_blocks.antennas.tapers import taylor_taper
 
     d, ideal = planar_cut(20.0)
     _, lobes = planar_cut(20.0, phase_bits=5)

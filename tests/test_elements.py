@@ -19,11 +19,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pasim_blocks.antenna import PlanarPatchArray, two_way_solid_angle
-from pasim_blocks.elements import CrossedDipoleElement, make_element
-from pasim_blocks.patterns import face_geometry
+from pasim_blocks.antennas.base import two_way_solid_angle
+from pasim_blocks.antennas.elements import CrossedDipoleElement, make_element
+from pasim_blocks.antennas.geometry import face_geometry
+from pasim_blocks.antennas.planar import PlanarPatchArray
 from pasim_blocks.signals import PATTERN
-from pasim_blocks.weather import WeatherChannel
+from pasim_blocks.weather.channel import WeatherChannel
 
 from pasim_graph import Chunk
 
@@ -101,7 +102,7 @@ def test_leakage_adds_the_other_port() -> None:
 def test_array_cross_polar_level_is_the_leakage() -> None:
     """80 x 80 patches with -30 dB leakage, at broadside: the cross-polar peak in the main beam
     is -30 dB (to 0.05 dB) for both ports, from the pattern command's measurement."""
-    from pasim_blocks.pattern_command import measure
+    from pasim_blocks.commands.pattern import measure
 
     block = PlanarPatchArray(name="a", cross_pol_db=-30.0, cross_pol_phase_deg=25.0)
     m = measure(block, 0.0, 0.0, span_deg=5.0)

@@ -12,7 +12,8 @@ from __future__ import annotations
 import json
 
 import pytest
-from pasim_blocks.theory import compare_with_reference, monte_carlo_statistics
+
+from tests.reference.theory import compare_with_reference, monte_carlo_statistics
 
 from .conftest import GRAPHS, run_cli
 

@@ -1,7 +1,8 @@
 """The weather channel in fast time: sub-gate scatterers through the pulse and the receive filter.
 
-The range model (``pasim_blocks.fasttime``) collapses pulse -> scatterers -> receive filter ->
-gate sampling into a response per gate offset, Doppler order and independent range component.
+The range model (``pasim_blocks.weather.fasttime``) collapses pulse -> scatterers -> receive
+filter -> gate sampling into a response per gate offset, Doppler order and independent range
+component.
 These tests hold it against the literal chain, against integrals computed here by other means,
 and check the weather channel built on it: adjacent-gate correlation against the continuous
 filter's, power against the expected level's, the blind range, float32 dynamic range.
@@ -13,10 +14,10 @@ import numpy as np
 import pytest
 import scipy.integrate
 import scipy.signal
-from pasim_blocks.antenna import IdealAntenna
-from pasim_blocks.fasttime import GateSum, range_model
-from pasim_blocks.scan import PPISector
-from pasim_blocks.weather import WeatherChannel
+from pasim_blocks.antennas.pencil import IdealAntenna
+from pasim_blocks.scans.ppi import PPISector
+from pasim_blocks.weather.channel import WeatherChannel
+from pasim_blocks.weather.fasttime import GateSum, range_model
 
 from pasim_graph import Chunk, load
 from pasim_graph.executor import LocalExecutor, RunOptions

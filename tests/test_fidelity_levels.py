@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pasim_blocks.ppp import pulse_pair
+from pasim_blocks.processing.pulse_pair import pulse_pair
 from pasim_blocks.signals import SPEED_OF_LIGHT
-from pasim_blocks.weather import WeatherChannel, azimuth_profile, cell_solid_angles
+from pasim_blocks.weather.beams import azimuth_profile, cell_solid_angles
+from pasim_blocks.weather.channel import WeatherChannel
 
 from pasim_graph import Chunk
 
@@ -123,7 +124,7 @@ def test_expected_level_recovers_a_uniform_truth_exactly():
 
 
 def pulse_pair_from(c):
-    from pasim_blocks.ppp import moments_from_correlations
+    from pasim_blocks.processing.pulse_pair import moments_from_correlations
     from pasim_blocks.signals import CORRELATION_PRODUCTS
 
     corr = {k: c[..., i] for i, k in enumerate(CORRELATION_PRODUCTS)}

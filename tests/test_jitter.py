@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pasim_blocks.jitter import TransmitterJitter, jitter_moments
 from pasim_blocks.signals import CORRELATION_PRODUCTS
+from pasim_blocks.transmitters.jitter import TransmitterJitter, jitter_moments
 
 from pasim_graph import Chunk
 

@@ -13,8 +13,8 @@ import warnings
 
 import numpy as np
 import pytest
-from pasim_blocks.nexrad_io import read_truth_sweep
-from pasim_blocks.truth import NexradTruth
+from pasim_blocks.truth.nexrad import NexradTruth
+from pasim_blocks.truth.nexrad_io import read_truth_sweep
 
 from pasim_graph import Chunk, RunNote
 

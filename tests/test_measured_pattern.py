@@ -21,14 +21,12 @@ import json
 import numpy as np
 import pytest
 import xarray as xr
-from pasim_blocks.antenna import PencilBeamAntenna, PlanarPatchArray
-from pasim_blocks.measured_pattern import (
-    MeasuredAntenna,
-    TabulatedPattern,
-    read_pattern_file,
-    write_pattern_file,
-)
-from pasim_blocks.patterns import PencilBeam, face_geometry, patch_field
+from pasim_blocks.antennas.aperture import PencilBeam
+from pasim_blocks.antennas.geometry import face_geometry, patch_field
+from pasim_blocks.antennas.measured import MeasuredAntenna, TabulatedPattern, read_pattern_file
+from pasim_blocks.antennas.pattern_files import write_pattern_file
+from pasim_blocks.antennas.pencil import PencilBeamAntenna
+from pasim_blocks.antennas.planar import PlanarPatchArray
 from pasim_blocks.signals import PATTERN
 
 from pasim_graph import Chunk

@@ -1,4 +1,4 @@
-"""Tests for pasim_blocks.nexrad_io: reading a merged, cleaned truth sweep from Level-II.
+"""Tests for pasim_blocks.truth.nexrad_io: reading a merged, cleaned truth sweep from Level-II.
 
 Most tests use the real KLBB volume from ``shared/data`` beside the repository (or the file
 named by the environment variable PASIM_TRUTH_FILE) and are skipped when it is absent; the
@@ -15,24 +15,25 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pasim_blocks import nexrad_io
-from pasim_blocks.nexrad_io import (
-    FIELD_NAMES,
-    TruthSweep,
-    _assemble,
-    _choose_cuts,
-    _Cut,
-    _CutData,
+from pasim_blocks.truth import level2
+from pasim_blocks.truth.gridding import (
     _drop_duplicate_radials,
-    _load_volume_bytes,
-    _Moment,
     _nearest_circular,
-    _read_moments,
-    _scan_volume,
     _sector_order,
-    _time_order,
-    read_truth_sweep,
+    assemble,
 )
+from pasim_blocks.truth.level2 import (
+    FIELD_NAMES,
+    CutData,
+    Moment,
+    _Cut,
+    _load_volume_bytes,
+    _read_moments,
+    choose_cuts,
+    scan_volume,
+    time_order,
+)
+from pasim_blocks.truth.nexrad_io import TruthSweep, read_truth_sweep
 
 _SHARED_FILE = Path(__file__).parents[1].parent / "shared" / "data" / "KLBB20160601_150025_V06"
 # sha256 of KLBB20160601_150025_V06, from the data's README.
@@ -354,7 +355,7 @@ def test_same_bits_as_the_whole_volume_xradar_reader(
 def test_codes_and_geometry_match_xradar(truth_file: Path) -> None:
     """xradar decodes the same records independently: same codes, azimuths and ranges."""
     xradar = pytest.importorskip("xradar")
-    cuts = _scan_volume(truth_file, 0.5).cuts
+    cuts = scan_volume(truth_file, 0.5).cuts
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         tree = xradar.io.open_nexradlevel2_datatree(
@@ -362,7 +363,7 @@ def test_codes_and_geometry_match_xradar(truth_file: Path) -> None:
         )
     for cut in cuts[:2]:
         theirs = tree[f"sweep_{cut.index}"].to_dataset()
-        radials = _time_order(cut.radials)
+        radials = time_order(cut.radials)
         ours = _read_moments(radials, radials[0], FIELD_NAMES)
         assert set(ours) == set(theirs.data_vars) & set(FIELD_NAMES)
         az = np.array([r.azimuth_deg for r in radials])
@@ -380,14 +381,14 @@ def test_codes_and_geometry_match_xradar(truth_file: Path) -> None:
 
 def _count_records(monkeypatch: pytest.MonkeyPatch) -> list[int]:
     taken: list[int] = []
-    records = nexrad_io._records
+    records = level2._records
 
     def counting(raw, path, cut=None):
         for record in records(raw, path, cut):
             taken.append(len(record))
             yield record
 
-    monkeypatch.setattr(nexrad_io, "_records", counting)
+    monkeypatch.setattr(level2, "_records", counting)
     return taken
 
 
@@ -407,13 +408,13 @@ def test_a_sector_decodes_only_its_radials(
     truth_file: Path, truth: TruthSweep, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     decoded: list[int] = []
-    read_moments = nexrad_io._read_moments
+    read_moments = level2._read_moments
 
     def counting(radials, reference, names):
         decoded.append(len(radials))
         return read_moments(radials, reference, names)
 
-    monkeypatch.setattr(nexrad_io, "_read_moments", counting)
+    monkeypatch.setattr(level2, "_read_moments", counting)
     sweep = read_truth_sweep(truth_file, 0.5, sector_deg=(240.0, 330.0), margin_deg=5.0)
     # Surveillance radials in 235..335 deg, then the Doppler radials paired with them.
     assert len(decoded) == 2
@@ -468,20 +469,20 @@ def test_choose_split_dual_pol_pair() -> None:
         _cut(1, 0.48, "DBZH", "VRADH", "WRADH"),
         _cut(2, 1.45, "DBZH", "ZDR", "RHOHV", "PHIDP"),
     ]
-    surveillance, doppler = _choose_cuts(cuts, 0.5, Path("x"))
+    surveillance, doppler = choose_cuts(cuts, 0.5, Path("x"))
     assert (surveillance.index, doppler.index) == (0, 1)
 
 
 def test_choose_legacy_single_pol_split_pair() -> None:
     # Pre-dual-pol split cut: reflectivity alone, then reflectivity + velocity + width.
     cuts = [_cut(0, 0.5, "DBZH"), _cut(1, 0.5, "DBZH", "VRADH", "WRADH"), _cut(2, 1.5, "DBZH")]
-    surveillance, doppler = _choose_cuts(cuts, 0.5, Path("x"))
+    surveillance, doppler = choose_cuts(cuts, 0.5, Path("x"))
     assert (surveillance.index, doppler.index) == (0, 1)
 
 
 def test_choose_non_split_cut_alone() -> None:
     cuts = [_cut(0, 0.5, "DBZH"), _cut(1, 0.5, "DBZH", "VRADH"), _cut(2, 2.4, "DBZH", "VRADH")]
-    surveillance, doppler = _choose_cuts(cuts, 2.5, Path("x"))
+    surveillance, doppler = choose_cuts(cuts, 2.5, Path("x"))
     assert surveillance.index == 2 and doppler is None
 
 
@@ -495,14 +496,14 @@ def test_choose_first_pair_when_elevation_is_revisited() -> None:
         _cut(3, 0.5, *full),
         _cut(4, 0.5, "DBZH", "VRADH", "WRADH"),
     ]
-    surveillance, doppler = _choose_cuts(cuts, 0.5, Path("x"))
+    surveillance, doppler = choose_cuts(cuts, 0.5, Path("x"))
     assert (surveillance.index, doppler.index) == (0, 1)
 
 
 def test_choose_rejects_far_elevation() -> None:
     cuts = [_cut(0, 0.5, "DBZH"), _cut(1, 1.5, "DBZH")]
     with pytest.raises(ValueError, match=r"vol\.ar2.*0\.50, 1\.50"):
-        _choose_cuts(cuts, 3.0, Path("vol.ar2"))
+        choose_cuts(cuts, 3.0, Path("vol.ar2"))
 
 
 # ------------------------------------------------------------ synthetic: merge of cuts
@@ -513,7 +514,7 @@ _SCALE = {"DBZH": (2.0, 66.0), "VRADH": (2.0, 129.0), "WRADH": (2.0, 129.0)}
 
 def _synthetic_cut(
     azimuth, moments: dict[str, tuple[np.ndarray, float, float]]
-) -> tuple[_CutData, list[np.ndarray]]:
+) -> tuple[CutData, list[np.ndarray]]:
     """A cut of undecoded codes (``moments[name] = (codes, first gate m, gate step m)``), and
     the list the rows the merge reads from it are appended to."""
     read_rows: list[np.ndarray] = []
@@ -525,10 +526,10 @@ def _synthetic_cut(
             if name in moments:
                 codes, first, step = moments[name]
                 scale, offset = _SCALE[name]
-                out[name] = _Moment(codes[rows], first, step, 1.0 / scale, -offset / scale)
+                out[name] = Moment(codes[rows], first, step, 1.0 / scale, -offset / scale)
         return out
 
-    return _CutData(np.asarray(azimuth, dtype=np.float64), read), read_rows
+    return CutData(np.asarray(azimuth, dtype=np.float64), read), read_rows
 
 
 def _velocity_codes(v) -> np.ndarray:
@@ -551,7 +552,7 @@ def test_assemble_legacy_single_pol_split_cut() -> None:
         az_d, {"VRADH": (vel, 2125.0, 250.0), "WRADH": (width, 2125.0, 250.0)}
     )
 
-    azimuth, range_m, fields = _assemble(
+    azimuth, range_m, fields = assemble(
         surv, dopp, radial_width_deg=0.5, sector_deg=None, margin_deg=0.0
     )
     np.testing.assert_allclose(azimuth, [0.3, 0.8, 1.3, 2.7, 359.8])
@@ -592,7 +593,7 @@ def test_assemble_finer_doppler_gates_are_averaged_by_range() -> None:
         [10.2], {"VRADH": (vel, -375.0, 250.0), "WRADH": (width, -375.0, 250.0)}
     )
 
-    _, range_m, fields = _assemble(
+    _, range_m, fields = assemble(
         surv,
         dopp,
         radial_width_deg=1.0,
@@ -608,7 +609,7 @@ def test_assemble_finer_doppler_gates_are_averaged_by_range() -> None:
         fields["WRADH"][0], np.sqrt([1.0 + spread0, 1.0 + 1.0, 1.0]), rtol=1e-6
     )
     # With no Nyquist velocity known the mean is arithmetic: 27 and -27 average to 0.
-    _, _, plain = _assemble(surv, dopp, radial_width_deg=1.0, sector_deg=None, margin_deg=0.0)
+    _, _, plain = assemble(surv, dopp, radial_width_deg=1.0, sector_deg=None, margin_deg=0.0)
     np.testing.assert_allclose(plain["VRADH"][0], [3.0, 0.0, 28.5], atol=1e-5)
 
 
@@ -616,7 +617,7 @@ def test_assemble_wrapping_sector_order() -> None:
     az = np.array([5.0, 355.0, 0.5, 180.0, 359.5, 9.5])
     codes = np.full((6, 2), 100, dtype=np.uint8)
     surv, surv_rows = _synthetic_cut(az, {"DBZH": (codes, 2125.0, 250.0)})
-    azimuth, _, _ = _assemble(
+    azimuth, _, _ = assemble(
         surv, None, radial_width_deg=0.5, sector_deg=(355.0, 10.0), margin_deg=0.0
     )
     np.testing.assert_allclose(azimuth, [355.0, 359.5, 0.5, 5.0, 9.5])

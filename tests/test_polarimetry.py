@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pasim_blocks.antenna import PlanarPatchArray
-from pasim_blocks.polarimetry import (
+from pasim_blocks.antennas.planar import PlanarPatchArray
+from pasim_blocks.weather.polarimetry import (
     channel_rows,
     coupling,
     port_fields,

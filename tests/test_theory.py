@@ -25,8 +25,9 @@ import itertools
 
 import numpy as np
 import pytest
-from pasim_blocks import theory
-from pasim_blocks.ppp import pulse_pair
+from pasim_blocks.processing.pulse_pair import pulse_pair
+
+from tests.reference import theory
 
 C = 299_792_458.0
 LAM = C / 2.8e9  # 2800 MHz

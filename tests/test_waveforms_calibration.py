@@ -105,8 +105,8 @@ def test_point_target_snr_is_the_energy_ratio() -> None:
     """Peak SNR of a point target through each filter: max|y|^2 / B_noise (N0 = 1, unit peak
     power), which is E / N0 for a matched filter: the Taylor LFM's is its efficiency times
     the LFM's, and the NLFM's its efficiency times the LFM's."""
-    from pasim_blocks.matched_filter import MatchedFilter
-    from pasim_blocks.waveform import LinearFM, NonlinearFM
+    from pasim_blocks.receivers.filters import MatchedFilter
+    from pasim_blocks.waveforms.pulses import LinearFM, NonlinearFM
 
     from pasim_graph import Chunk
 

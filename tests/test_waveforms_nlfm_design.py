@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pasim_blocks.nlfm import (
+from pasim_blocks.waveforms.nlfm import (
     design_optimised,
     gaussian_log_density,
     load_optimised,

@@ -1,0 +1,338 @@
+"""``pasim pattern``: the antenna of a graph, measured as an antenna engineer would.
+
+Azimuth and elevation cuts through the beam (one-way, H and V, co- and cross-polar), the
+3-dB beamwidths, first and peak sidelobes, peak gain, the peak cross-polar level in the main
+beam and the two-way H/V ratio at the peak (the ZDR bias the pattern causes), for the array
+as built (channel errors drawn from ``--seed``, as ``pasim run --seed`` draws them) and, when
+it has electronics, for the ideal array beside it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from typing import Any
+
+import numpy as np
+
+#: Main beam for the cross-polar level: where the port's co-polar power is within this of its
+#: peak (dB).
+MAIN_BEAM_DB = 20.0
+
+
+def _steer(text: str) -> tuple[float, float]:
+    try:
+        az, el = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected AZ,EL in degrees (e.g. 30,0), found {text!r}"
+        ) from None
+    if not (math.isfinite(az) and math.isfinite(el)) or abs(el) >= 90:
+        raise argparse.ArgumentTypeError(f"AZ,EL must be finite with |EL| < 90, found {text!r}")
+    return az, el
+
+
+def _span(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected degrees, found {text!r}") from None
+    if not 0.5 <= value <= 180:
+        raise argparse.ArgumentTypeError(f"--span must be in [0.5, 180] deg, found {value}")
+    return value
+
+
+def antenna_blocks(graph: Any) -> list[str]:
+    """Names of the graph's blocks that output an antenna pattern."""
+    return sorted(
+        name
+        for name, cls in graph.classes.items()
+        if any(port.type.kind == "pattern" for port in cls.outputs.values())
+    )
+
+
+def build(graph: Any, name: str, **overrides: Any) -> Any:
+    """The block ``name`` of ``graph`` with its parameters (and ``overrides``), loaded."""
+    cls = graph.classes[name]
+    block = cls(name=name, **{**graph.params[name], **overrides})
+    if not hasattr(block, "fields_at"):
+        raise ValueError(f"block {name!r} ({cls.type_name}) cannot evaluate its pattern here")
+    return block
+
+
+def measure(
+    block: Any,
+    steer_az_deg: float,
+    steer_el_deg: float,
+    *,
+    seed: int = 0,
+    resource: Any = None,
+    span_deg: float = 90.0,
+    step_deg: float | None = None,
+) -> dict[str, Any]:
+    """Cuts and figures of merit of ``block``'s beam steered (az, el) from its broadside."""
+    from ..antennas.measures import half_power_beamwidth_deg, peak_sidelobe_db
+
+    if hasattr(block, "prepare"):
+        block.prepare(resource)
+    az0, el0 = block.broadside()
+    az_b, el_b = az0 + steer_az_deg, el0 + steer_el_deg
+    step = step_deg or min(0.01, span_deg / 2000)
+    d = np.arange(-span_deg, span_deg + step / 2, step)
+    d_el = d[(el_b + d > -90) & (el_b + d < 90)]
+
+    def cut(az: np.ndarray, el: np.ndarray) -> dict[str, np.ndarray]:
+        f = block.fields_at(az_b, el_b, az, el, seed, resource)
+        return {k: np.abs(np.asarray(getattr(f, k))) ** 2 for k in f._fields}
+
+    az_cut = cut(az_b + d, np.full(d.size, el_b))
+    el_cut = cut(np.full(d_el.size, az_b), el_b + d_el)
+    bw_az = half_power_beamwidth_deg(d, az_cut["h_co"])
+    bw_el = half_power_beamwidth_deg(d_el, el_cut["h_co"])
+    # The main beam in 2-D, for the peak gain, the cross-polar level and the H/V ratio (the
+    # geometric cross-polar field vanishes in the principal cuts).
+    half = 1.5 * max(bw_az, bw_el)
+    g = np.linspace(-half, half, 61)
+    f = block.fields_at(az_b, el_b, az_b + g[None, :], el_b + g[:, None], seed, resource)
+    shape = (g.size, g.size)
+    power = {k: np.broadcast_to(np.abs(np.asarray(getattr(f, k))) ** 2, shape) for k in f._fields}
+    peak = np.unravel_index(int(np.argmax(power["h_co"])), shape)
+    cross = []
+    for co, x in (("h_co", "h_cross"), ("v_co", "v_cross")):
+        main = power[co] >= power[co].max() * 10 ** (-MAIN_BEAM_DB / 10)
+        cross.append(float(power[x][main].max() / power[co].max()))
+    gain_db = float(block.pattern_gain_db(resource))
+    with np.errstate(divide="ignore"):
+        result = {
+            "beamwidth_az_deg": bw_az,
+            "beamwidth_el_deg": bw_el,
+            "first_sidelobe_db": first_sidelobe_db(d, az_cut["h_co"]),
+            "first_sidelobe_el_db": first_sidelobe_db(d_el, el_cut["h_co"]),
+            "peak_sidelobe_db": max(
+                peak_sidelobe_db(d, az_cut["h_co"]), peak_sidelobe_db(d_el, el_cut["h_co"])
+            ),
+            "peak_gain_dbi": gain_db + float(10 * np.log10(power["h_co"][peak])),
+            "cross_pol_db": float(10 * np.log10(max(cross))),
+            "zdr_bias_db": float(20 * np.log10(power["h_co"][peak] / power["v_co"][peak])),
+            "beamwidth_az_v_deg": half_power_beamwidth_deg(d, az_cut["v_co"]),
+            "first_sidelobe_v_db": first_sidelobe_db(d, az_cut["v_co"]),
+            "peak_sidelobe_v_db": max(
+                peak_sidelobe_db(d, az_cut["v_co"]), peak_sidelobe_db(d_el, el_cut["v_co"])
+            ),
+            "cross_pol_h_db": float(10 * np.log10(cross[0])),
+            "cross_pol_v_db": float(10 * np.log10(cross[1])),
+            "gain_db": gain_db,
+            "beam_azimuth_deg": float(az_b % 360.0),
+            "beam_elevation_deg": float(el_b),
+        }
+    result["cuts"] = {"azimuth": (d, az_cut), "elevation": (d_el, el_cut)}
+    return result
+
+
+def first_sidelobe_db(angles_deg: np.ndarray, power: np.ndarray) -> float:
+    """The first sidelobe of a cut, NaN when the cut holds none (too short a span)."""
+    from ..antennas.measures import first_sidelobe_db as measure_first
+
+    try:
+        return measure_first(angles_deg, power)
+    except ValueError:
+        return float("nan")
+
+
+def _json_value(v: Any) -> Any:
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v
+
+
+class PatternCommand:
+    help = "measure a graph's antenna pattern: beamwidths, sidelobes, gain, cross-pol, ZDR bias"
+
+    def configure(self, parser: argparse.ArgumentParser) -> None:
+        from pasim_graph.cli import add_graph_arguments, parse_seed
+
+        parser.add_argument("graph", help="graph file")
+        parser.add_argument(
+            "--steer",
+            type=_steer,
+            default=(0.0, 0.0),
+            metavar="AZ,EL",
+            help="beam direction in degrees from the array's broadside (default 0,0)",
+        )
+        parser.add_argument(
+            "--seed",
+            type=parse_seed,
+            default=0,
+            help="run seed that draws the channel errors, as `pasim run --seed` (default 0)",
+        )
+        parser.add_argument("--block", help="the antenna block, when the graph has several")
+        parser.add_argument(
+            "--span",
+            type=_span,
+            default=90.0,
+            help="half-width of the azimuth and elevation cuts, degrees (default 90)",
+        )
+        parser.add_argument("--json", action="store_true", help="print the figures as JSON")
+        parser.add_argument("--plot", metavar="FILE.png", help="plot the cuts to a PNG file")
+        add_graph_arguments(parser)
+
+    def run(self, args: argparse.Namespace) -> int:
+        from pasim_graph.cli import UserError, load_graph
+
+        from ..antennas.array import ideal_copy
+
+        graph = load_graph(args)
+        names = antenna_blocks(graph)
+        if args.block:
+            if args.block not in names:
+                raise UserError(
+                    f"--block {args.block}: not an antenna block of {args.graph} "
+                    f"(antennas: {', '.join(names) or 'none'})"
+                )
+            names = [args.block]
+        if not names:
+            raise UserError(f"{args.graph}: no block outputs an antenna pattern")
+        if len(names) > 1:
+            raise UserError(f"{args.graph} has several antennas ({', '.join(names)}): use --block")
+        name = names[0]
+        try:
+            block = build(graph, name)
+            resource = block.load()
+            built = measure(
+                block, *args.steer, seed=args.seed, resource=resource, span_deg=args.span
+            )
+            ideal = None
+            channel = getattr(block, "channel", None)
+            if channel is not None and not channel.ideal:
+                ideal_block = ideal_copy(block)
+                ideal = measure(
+                    ideal_block, *args.steer, seed=args.seed, resource=resource, span_deg=args.span
+                )
+        except ValueError as exc:
+            raise UserError(f"block {name!r} ({graph.classes[name].type_name}): {exc}") from None
+        if args.plot:
+            plot(args.plot, built, ideal, f"{args.graph}: {name}, steered {args.steer}")
+        figures = {k: _json_value(v) for k, v in built.items() if k != "cuts"}
+        figures.update(
+            antenna=name,
+            type=graph.classes[name].type_name,
+            steer_deg=list(args.steer),
+            seed=args.seed,
+            electronics="ideal" if ideal is None else "with errors",
+            calibration=graph.value(name, "calibration")
+            if "calibration" in graph.classes[name].params
+            else "boresight",
+        )
+        if ideal is not None:
+            figures["ideal"] = {k: _json_value(v) for k, v in ideal.items() if k != "cuts"}
+        if args.json:
+            print(json.dumps(figures, indent=2))
+            return 0
+        print(
+            f"{args.graph}: antenna {name!r} ({figures['type']}), beam at az "
+            f"{figures['beam_azimuth_deg']:.2f}, el {figures['beam_elevation_deg']:.2f} deg "
+            f"({args.steer[0]:g}, {args.steer[1]:g} from broadside), {figures['electronics']}"
+        )
+        rows = [
+            ("3-dB beamwidth, azimuth / elevation (deg)", "beamwidth_az_deg", "beamwidth_el_deg"),
+            (
+                "first sidelobe, azimuth / elevation (dB)",
+                "first_sidelobe_db",
+                "first_sidelobe_el_db",
+            ),
+            ("peak sidelobe, H / V (dB)", "peak_sidelobe_db", "peak_sidelobe_v_db"),
+            (
+                "peak cross-polar in the main beam, H / V port (dB)",
+                "cross_pol_h_db",
+                "cross_pol_v_db",
+            ),
+        ]
+        for label, a, b in rows:
+            print(
+                f"  {label:52s} {_fmt(figures[a])} / {_fmt(figures[b])}"
+                + _ideal_note(figures, a, b)
+            )
+        print(
+            f"  {'peak gain (dBi)':52s} {_fmt(figures['peak_gain_dbi'])}"
+            + _ideal_note(figures, "peak_gain_dbi")
+        )
+        print(
+            f"  {'ZDR bias: two-way H/V ratio at the peak (dB)':52s} "
+            f"{_fmt(figures['zdr_bias_db'])}" + _ideal_note(figures, "zdr_bias_db")
+        )
+        if args.plot:
+            print(f"wrote {args.plot}")
+        return 0
+
+
+def _fmt(v: Any) -> str:
+    return "n/a" if v is None else f"{v:.3f}"
+
+
+def _ideal_note(figures: dict[str, Any], *keys: str) -> str:
+    if "ideal" not in figures:
+        return ""
+    return "   (ideal " + " / ".join(_fmt(figures["ideal"][k]) for k in keys) + ")"
+
+
+def plot(path: str, built: dict[str, Any], ideal: dict[str, Any] | None, title: str) -> None:
+    """Azimuth and elevation cuts (dB, one-way, relative to the ideal peak), as the paper's
+    figures 3d-e and 5."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    reference = (ideal or built)["cuts"]["azimuth"][1]["h_co"].max()
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+    for ax, key in zip(axes, ("azimuth", "elevation"), strict=True):
+        with np.errstate(divide="ignore"):
+            if ideal is not None:
+                d, c = ideal["cuts"][key]
+                ax.plot(
+                    d,
+                    10 * np.log10(c["h_co"] / reference),
+                    color="0.6",
+                    lw=1.0,
+                    label="H co-polar, ideal",
+                )
+            d, c = built["cuts"][key]
+            label = "with errors" if ideal is not None else ""
+            ax.plot(
+                d,
+                10 * np.log10(c["h_co"] / reference),
+                color="C0",
+                lw=0.8,
+                label=f"H co-polar {label}".strip(),
+            )
+            ax.plot(
+                d,
+                10 * np.log10(c["v_co"] / reference),
+                color="C1",
+                lw=0.8,
+                alpha=0.8,
+                label=f"V co-polar {label}".strip(),
+            )
+            for comp, color in (("h_cross", "C2"), ("v_cross", "C3")):
+                if np.any(c[comp] > 0):
+                    ax.plot(
+                        d,
+                        10 * np.log10(c[comp] / reference),
+                        color=color,
+                        lw=0.6,
+                        ls=":",
+                        label=f"{comp[0].upper()} cross-polar",
+                    )
+        ax.set_xlabel(f"{key} from the beam axis (deg)")
+        ax.set_ylim(-70, 3)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("one-way power (dB, ideal peak = 0)")
+    axes[1].legend(loc="upper right", fontsize=7)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+COMMAND = PatternCommand()

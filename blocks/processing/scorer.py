@@ -1,0 +1,147 @@
+"""Scoring: estimated moments against the truth, judged by the NEXRAD requirements."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from pasim_graph import Block, Chunk, Input, Output, Param
+
+from ..angles import circular_difference, nearest_radial
+from ..cf import cf_attributes
+from ..signals import BEAMS, MOMENT_UNITS, MOMENTS, NOISE_POWER, SCORES, SIGNAL_POWER, TRUTH
+
+#: NEXRAD data-quality requirements (paper Table 3): bias, standard deviation, units.
+REQUIREMENTS = {
+    "DBZH": (1.0, 1.0),
+    "VRADH": (1.0, 1.0),
+    "WRADH": (1.0, 1.0),
+    "ZDR": (0.1, 0.2),
+    "RHOHV": (0.005, 0.01),
+    "PHIDP": (1.0, 2.0),
+}
+
+
+class NexradScorer(Block):
+    """Errors of each moment against the raw truth gate each beam is centred on.
+
+    A gate is scored where the truth reflectivity is at least ``min_reflectivity_dbz`` and the
+    expected SNR at least ``min_snr_db`` (so runs and systems are comparable), and where both
+    the estimate and the truth of that moment exist. Velocity is differenced on the circle of
+    the simulated radar's Nyquist interval, phi_DP on 360 deg (180 deg when the moments say it
+    is measured modulo 180, as alternate transmission does). ``pasim score`` reduces the
+    errors to bias and standard deviation and judges them against paper Table 3.
+    """
+
+    moments = Input(MOMENTS, doc="estimated moments")
+    truth = Input(TRUTH, doc="truth sweep")
+    signal_power = Input(SIGNAL_POWER, doc="expected echo power")
+    noise_power = Input(NOISE_POWER, doc="noise power per channel")
+    beams = Input(BEAMS, doc="beam geometry")
+    scores = Output(SCORES, store="moments", doc="truth on the grid, SNR and errors")
+
+    min_reflectivity_dbz = Param(
+        10.0,
+        units="dBZ",
+        min=-100.0,
+        max=100.0,
+        doc="score gates with truth reflectivity at least this",
+    )
+    min_snr_db = Param(
+        10.0, units="dB", min=-100.0, max=100.0, doc="score gates with expected SNR at least this"
+    )
+
+    def setup(self) -> None:
+        self._cf = cf_attributes()
+
+    def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
+        cf = self._cf
+
+        est, truth, beams = inputs["moments"], inputs["truth"], inputs["beams"]
+        radials = truth["azimuth"].values
+        az = beams["azimuth"].values
+        nearest = nearest_radial(az, radials)
+        with np.errstate(divide="ignore"):
+            snr = 10 * np.log10(inputs["signal_power"][..., 0] / inputs["noise_power"][..., 0])
+        ref = truth.isel(radial=nearest)
+        n_est = est.sizes["range"]
+        dbz_t = ref["DBZH"].values[:, :n_est]
+        blind = float(est.attrs["blind_range_m"])
+        with np.errstate(invalid="ignore"):
+            scored = (
+                (dbz_t >= self.p["min_reflectivity_dbz"])
+                & (snr >= self.p["min_snr_db"])
+                & (est["range"].values >= blind)[None, :]
+            )
+        rule = (
+            f"truth DBZH >= {self.p['min_reflectivity_dbz']:g} dBZ and expected SNRH >= "
+            f"{self.p['min_snr_db']:g} dB, beyond the blind range ({blind:g} m); truth = the "
+            f"raw radial nearest each beam; calibration: {est.attrs['calibration']}"
+        )
+        if est.attrs.get("transmission") == "ahv":
+            rule += (
+                "; transmission: ahv (velocity and phi_DP scored on its own circles, +-v_a and "
+                "180 deg)"
+            )
+        dims = ("beam", "range")
+        scored_attrs = {
+            "pasim_role": "scored",
+            "long_name": "gate meets the scoring rule",
+            "scored": rule,
+        }
+        out = xr.Dataset(
+            {
+                "SNRH": (
+                    dims,
+                    snr.astype(np.float32),
+                    {
+                        **cf.var("SNRH"),
+                        "units": "dB",
+                        "long_name": "expected signal-to-noise ratio H (noise-free echo power)",
+                    },
+                ),
+                "scored": (dims, scored.astype(np.int8), scored_attrs),
+            }
+        )
+        nyquist = est["nyquist_velocity"].values[:, None]
+        # Alternate transmission measures phi_DP modulo 180 deg (as velocity modulo its
+        # Nyquist interval): it is scored on that circle.
+        phidp_period = float(est.attrs.get("phidp_period_deg", 360.0))
+        for name, (req_b, req_s) in REQUIREMENTS.items():
+            units = MOMENT_UNITS[name]
+            if name not in est or name not in ref:
+                continue
+            t = ref[name].values[:, :n_est].astype(np.float64)
+            e = est[name].values.astype(np.float64)
+            if name == "VRADH":
+                err = circular_difference(e, t, 2 * nyquist)
+            elif name == "PHIDP":
+                err = circular_difference(e, t, phidp_period)
+            else:
+                err = e - t
+            err = np.where(scored & np.isfinite(err), err, np.nan)
+            # Circular moments say their period, so differences of errors can be wrapped too.
+            period = {"VRADH": float(2 * nyquist.flat[0]), "PHIDP": phidp_period}.get(name)
+            out[f"truth_{name}"] = (
+                dims,
+                t.astype(np.float32),
+                {**cf.var(name), "units": units, "source": "truth"},
+            )
+            out[f"error_{name}"] = (
+                dims,
+                err.astype(np.float32),
+                {
+                    "pasim_role": "error",
+                    "moment": name,
+                    "truth_variable": f"truth_{name}",
+                    "units": units,
+                    "requirement_bias": req_b,
+                    "requirement_std": req_s,
+                    "scored": rule,
+                    "long_name": f"{name} estimate minus truth",
+                    **({"period": period} if period else {}),
+                },
+            )
+        return {"scores": out}

@@ -1,0 +1,155 @@
+"""Scan strategies: which beams the radar forms, where, and for how long."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from pasim_graph import Block, Chunk, Input, Output, Param
+
+from ..angles import circular_difference, nearest_radial
+from ..cf import cf_attributes
+from ..signals import BEAMS, TRUTH
+
+
+class PPISector(Block):
+    """A PPI sector scan: beams at one elevation across an azimuth sector.
+
+    Beams are spaced ``beam_spacing_deg`` apart from ``azimuth_start_deg`` clockwise to
+    ``azimuth_stop_deg`` (a sector may wrap through north), each dwelling ``pulses`` pulses of
+    ``prt_s``. When the truth is connected and ``align_to_truth`` is set, each beam points at
+    the nearest truth radial, so the scores compare a beam with the radial it is centred on.
+    0 to 360 deg is the full circle; a sector whose ends are equal, or narrower than one beam
+    spacing, is refused at validation.
+    """
+
+    role = "scan"
+    beam_source = True
+
+    truth = Input(TRUTH, required=False, doc="truth sweep, for site, time and alignment")
+    beams = Output(BEAMS, store="moments", doc="geometry of the beams in the chunk")
+
+    azimuth_start_deg = Param(
+        240.0,
+        units="deg",
+        min=0.0,
+        max=360.0,
+        doc="first edge of the sector (clockwise from north)",
+    )
+    azimuth_stop_deg = Param(330.0, units="deg", min=0.0, max=360.0, doc="last edge of the sector")
+    beam_spacing_deg = Param(1.0, units="deg", min=0.01, max=30.0, doc="azimuth step between beams")
+    elevation_deg = Param(0.5, units="deg", min=-2.0, max=90.0, doc="beam elevation")
+    pulses = Param(64, type="int", min=2, max=4096, doc="pulses per dwell (M)")
+    prt_s = Param(1 / 300, units="s", min=1e-5, max=0.1, doc="pulse repetition time")
+    align_to_truth = Param(True, type="bool", doc="point each beam at the nearest truth radial")
+
+    @classmethod
+    def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
+        def get(name: str) -> Any:
+            return params.get(name, cls.params[name].default)
+
+        start, stop = get("azimuth_start_deg"), get("azimuth_stop_deg")
+        step = get("beam_spacing_deg")
+        sector = f"the sector {start:g} to {stop:g} deg"
+        if stop - start != 360.0 and (stop - start) % 360.0 == 0.0:
+            # setup() would read equal ends as the full circle: refused, since it is more
+            # likely a mistake than a way of asking for 360 deg.
+            return [
+                (
+                    "parameter 'azimuth_stop_deg'",
+                    f"{sector} starts and stops at the same azimuth and holds no beam; for the "
+                    "full circle give azimuth_start_deg 0 and azimuth_stop_deg 360",
+                )
+            ]
+        span = (stop - start) % 360.0 or 360.0
+        if span < step * (1.0 - 1e-9):  # 0.7 to 1.7 deg is one 1-deg beam, not 0.99999...
+            return [
+                (
+                    "parameter 'azimuth_stop_deg'",
+                    f"{sector} spans {span:g} deg, less than one beam (beam_spacing_deg = "
+                    f"{step:g} deg); widen the sector or space the beams closer",
+                )
+            ]
+        return []
+
+    def setup(self) -> None:
+        self._cf = cf_attributes()
+        span = (self.p["azimuth_stop_deg"] - self.p["azimuth_start_deg"]) % 360.0 or 360.0
+        self.n_beams = max(1, round(span / self.p["beam_spacing_deg"]))
+
+    def beam_count(self) -> int:
+        return self.n_beams
+
+    def nominal_azimuths(self) -> np.ndarray:
+        step = self.p["beam_spacing_deg"]
+        return (self.p["azimuth_start_deg"] + step * (np.arange(self.n_beams) + 0.5)) % 360.0
+
+    def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
+        cf = self._cf
+        az = self.nominal_azimuths()
+        truth = inputs.get("truth")
+        start = np.datetime64("2000-01-01T00:00:00", "ns")
+        site = {"latitude": 0.0, "longitude": 0.0, "altitude": 0.0}
+        if truth is not None:
+            if self.p["align_to_truth"]:
+                az = _snap(az, truth["azimuth"].values)
+            start = np.datetime64(
+                str(truth.attrs.get("time_coverage_start", start)).rstrip("Z"), "ns"
+            )
+            site = {k: float(truth.attrs.get(k, 0.0)) for k in site}
+        beams = chunk.beams
+        dwell = self.p["pulses"] * self.p["prt_s"]
+        time = start + (beams * dwell * 1e9).astype("timedelta64[ns]")
+        elevation = np.full(beams.size, self.p["elevation_deg"])
+        ds = xr.Dataset(
+            {
+                "sweep_number": ((), 0),
+                "sweep_mode": ((), "azimuth_surveillance"),
+                "sweep_fixed_angle": ((), float(self.p["elevation_deg"]), dict(cf.elevation)),
+                "prt": (
+                    "beam",
+                    np.full(beams.size, self.p["prt_s"]),
+                    {"units": "seconds", "long_name": "pulse repetition time"},
+                ),
+                "pulses": ((), int(self.p["pulses"]), {"long_name": "pulses per dwell"}),
+                # Volume metadata FM-301 asks for at the root (the store moves it there).
+                "time_coverage_start": ((), _iso(start)),
+                "time_coverage_end": (
+                    (),
+                    _iso(start + np.timedelta64(int(self.n_beams * dwell * 1e9), "ns")),
+                ),
+                "volume_number": ((), 0),
+                "platform_type": ((), "fixed"),
+                "instrument_type": ((), "radar"),
+            },
+            coords={
+                "azimuth": ("beam", az[beams].astype(np.float64), dict(cf.azimuth)),
+                "elevation": ("beam", elevation, dict(cf.elevation)),
+                "time": ("beam", time, {"standard_name": "time"}),
+                **{k: ((), v) for k, v in site.items()},
+            },
+        )
+        ds["latitude"].attrs = dict(cf.latitude)
+        ds["longitude"].attrs = dict(cf.longitude)
+        ds["altitude"].attrs = dict(cf.altitude)
+        return {"beams": ds}
+
+
+def _nearest(az: np.ndarray, radials: np.ndarray) -> np.ndarray:
+    return radials[nearest_radial(az, radials)]
+
+
+def _snap(az: np.ndarray, radials: np.ndarray) -> np.ndarray:
+    """Point beams at truth radials, shifting the whole scan by one common offset first.
+
+    Snapping each beam on its own would break ties differently from beam to beam (1 deg beams
+    sit midway between 0.5 deg radials) and make the spacing uneven.
+    """
+    shift = circular_difference(_nearest(az[:1], radials)[0], az[0], 360.0)
+    return _nearest((az + shift) % 360.0, radials)
+
+
+def _iso(t: np.datetime64) -> str:
+    return str(np.datetime_as_string(t, unit="s")) + "Z"

@@ -1,0 +1,129 @@
+"""What one beam sees: pattern weights of the truth cells (co-polar powers or the complex
+co- and cross-polar coupling) and the bundle every drawing path receives.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+# Moments used for a cell that has reflectivity but lacks another field (e.g. beyond the
+# Doppler cut's range): a still, narrow-spectrum, well-correlated echo.
+from .cells import TruthCells
+from .fasttime import RangeModel
+from .polarimetry import (
+    SOURCE_COMPONENTS,
+    channel_rows,
+    pairs,
+)
+
+
+def azimuth_profile(power: np.ndarray, d_el_deg: np.ndarray, elevation_deg: float) -> np.ndarray:
+    """Two-way pattern integrated over elevation (rad), per polarisation and azimuth offset."""
+    cos_el = np.cos(np.deg2rad(elevation_deg + d_el_deg))
+    step = np.deg2rad(d_el_deg[1] - d_el_deg[0])
+    p = power.astype(np.float64)
+    p *= p
+    return np.einsum("e,pea->pa", cos_el, p) * step
+
+
+def cell_solid_angles(
+    profile: np.ndarray, d_az_deg: np.ndarray, centre_deg: np.ndarray, width_deg: float
+) -> np.ndarray:
+    """Two-way pattern integral over each truth radial's azimuth extent (sr), per polarisation."""
+    step = np.deg2rad(d_az_deg[1] - d_az_deg[0])
+    edges = np.concatenate(
+        [
+            d_az_deg - (d_az_deg[1] - d_az_deg[0]) / 2,
+            [d_az_deg[-1] + (d_az_deg[1] - d_az_deg[0]) / 2],
+        ]
+    )
+    out = np.empty((profile.shape[0], centre_deg.size))
+    for i in range(profile.shape[0]):
+        cum = np.concatenate([[0.0], np.cumsum(profile[i] * step)])
+        out[i] = np.interp(centre_deg + width_deg / 2, edges, cum) - np.interp(
+            centre_deg - width_deg / 2, edges, cum
+        )
+    return out
+
+
+class Coupling(NamedTuple):
+    """The two-way polarimetric coupling of one beam's radials (:func:`coupling_weights`).
+
+    ``weights[p, n, j]``: for channel pair p = (k, k') of
+    :func:`pasim_blocks.weather.polarimetry.pairs` and source n (S_h, S_v, Y, X), the integral
+    over radial j of a_k[c] a_k'[c']* (sr): a cell
+    with sources src has E[w_k w_k'*] = sum_n weights[p, n] src_n.
+    """
+
+    channels: int
+    weights: np.ndarray
+
+    def select(self, n: int) -> np.ndarray:
+        """Weights of the pairs of the first ``n`` channels, in ``pairs(n)`` order."""
+        index = {p: i for i, p in enumerate(pairs(self.channels))}
+        return self.weights[[index[p] for p in pairs(n)]]
+
+
+def coupling_weights(
+    co: np.ndarray,
+    cross: np.ndarray,
+    d_az_deg: np.ndarray,
+    d_el_deg: np.ndarray,
+    elevation_deg: float,
+    centre_deg: np.ndarray,
+    width_deg: float,
+    mode: str,
+    transmit_phase_deg: float,
+    channels: list[tuple[int, int]],
+) -> np.ndarray:
+    """Per channel pair and source, the coupling products integrated over each truth radial.
+
+    The two-way couplings a_k[c] of the channels
+    (:func:`pasim_blocks.weather.polarimetry.channel_rows`) are multiplied pairwise,
+    a_k[c] a_k'[c']*, integrated over elevation with cos(el) and over
+    each radial's azimuth extent, as :func:`azimuth_profile` and :func:`cell_solid_angles`
+    integrate the squared power pattern. Returns (pair, source, radial) complex (sr).
+    """
+    rows = channel_rows(co, cross, mode, transmit_phase_deg, channels)
+    n_ch, n_el, n_az = rows.shape[0], rows.shape[2], rows.shape[3]
+    cos_el = np.cos(np.deg2rad(elevation_deg + d_el_deg))
+    step = np.deg2rad(d_el_deg[1] - d_el_deg[0])
+    # Every Hermitian product at once: per azimuth offset, the elevation-weighted Gram matrix
+    # of the 2 n_ch coupling rows, summed in float64 (second-order cross-polar terms are
+    # 1e-8 of the co-polar ones at -40 dB).
+    x = np.empty((n_az, 2 * n_ch, n_el), np.complex128)
+    x[...] = rows.reshape(2 * n_ch, n_el, n_az).transpose(2, 0, 1)
+    weighted = x * (cos_el * step)
+    np.conjugate(x, out=x)
+    gram = (weighted @ x.transpose(0, 2, 1)).transpose(1, 2, 0)
+    plist = pairs(n_ch)
+    profile = np.empty((len(plist), 4, n_az), np.complex128)
+    for i, (k, q) in enumerate(plist):
+        for n, (c, c2) in enumerate(SOURCE_COMPONENTS):
+            profile[i, n] = gram[2 * k + c, 2 * q + c2]
+    flat = profile.reshape(-1, n_az)
+    both = cell_solid_angles(
+        np.concatenate([flat.real, flat.imag]), d_az_deg, centre_deg, width_deg
+    )
+    half = flat.shape[0]
+    return (both[:half] + 1j * both[half:]).reshape(len(plist), 4, centre_deg.size)
+
+
+class BeamDraw(NamedTuple):
+    """What every drawing path needs for one beam: the truth cells, the radials near the beam
+    and their two-way weights (``omega``: co-polar power patterns; ``coupling``: the complex
+    co- and cross-polar fields, None without them), the range model, the beam's H and V random
+    streams, the number of channels drawn (1: H only) and the transmission mode."""
+
+    cells: TruthCells
+    near: np.ndarray
+    omega: np.ndarray
+    ranges: RangeModel
+    gen_h: np.random.Generator
+    gen_v: np.random.Generator
+    need_v: bool
+    coupling: Coupling | None
+    channels: int
+    mode: str

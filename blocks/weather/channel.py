@@ -1,0 +1,384 @@
+"""The weather channel: truth cells -> dual-polarisation echo time series at every gate."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from pasim_graph import Block, Chunk, Input, Output, Param
+
+from ..angles import circular_difference
+from ..signals import (
+    BEAMS,
+    CALIBRATION,
+    CORRELATION_PRODUCTS,
+    ECHO_CORRELATIONS,
+    IQ,
+    KW2,
+    PATTERN,
+    POLARIMETRIC_FIELDS,
+    POLARIZATIONS,
+    RANGE_RESPONSE,
+    SHV_PRODUCTS,
+    SIGNAL_POWER,
+    SPEED_OF_LIGHT,
+    TRUTH,
+)
+from .beams import BeamDraw, Coupling, azimuth_profile, cell_solid_angles, coupling_weights
+from .cells import TruthCells
+from .combined import draw_combined, draw_combined_coupled, draw_tones, draw_tones_coupled
+from .expected import expected_correlations, expected_correlations_coupled
+from .fasttime import range_correlate, range_model
+from .per_cell import draw_per_cell, draw_per_cell_coupled
+from .polarimetry import (
+    MODES,
+    receive_channels,
+)
+
+#: Fidelity levels of the weather channel, fastest first.
+METHODS = ("expected", "combined", "covariance", "monte_carlo")
+
+
+class WeatherChannel(Block):
+    """Echoes of the truth cells around each beam, at one of four fidelity levels.
+
+    Every truth cell with echo inside the pattern grid is an independent Gaussian scatterer
+    ensemble with a Gaussian Doppler spectrum (mean velocity, spectrum width), and H and V
+    returns S_hh = V1, S_vv = [rho V1 + sqrt(1 - rho^2) V2] exp(j phi_DP) / sqrt(Z_dr). Each
+    cell is weighted by the two-way H or V pattern integrated over its azimuth extent and all
+    elevations (the truth is one sweep, taken as uniform in elevation). In range, a cell is a
+    continuum of sub-gate scatterers seen through the radiated pulse (with its Doppler phase
+    along the pulse) and the receive filter, at every gate the range response reaches, range
+    sidelobes included (:mod:`pasim_blocks.weather.fasttime`). Powers come from the radar equation,
+    so a uniform field of Z dBZ gives back Z through the calibration output. The levels
+    (``method``), fastest first:
+
+    - ``expected``: no random draw. The echo's expected correlations (lag 0 and 1 of H and V,
+      lag-0 H-V) through the beam and the range response's power (at each cell's velocity);
+      the I/Q cube has no pulses and the pulse-pair processor estimates from
+      ``echo_correlations``: the smoothing error alone.
+    - ``combined``: each gate's series drawn at once from the pattern- and range-weighted sum
+      of its cells' spectra over the whole range response, a 2 x 2 H-V matrix per frequency
+      bin of a 2M circulant embedding (exact in distribution per gate for a sum of
+      independent Gaussian processes; neighbouring gates are drawn independently); cells too
+      narrow for the embedding are drawn per cell and added.
+    - ``covariance``: per cell, paper eq. 13-18 (Cholesky colouring; one factor per distinct
+      width), for each of the cell's independent range components, which the range response
+      spreads over the gates: neighbouring gates correlate as the filter makes them.
+    - ``monte_carlo``: per cell, ``drops_per_cell`` moving drops (paper eq. 5-12), each at a
+      random place in the cell, spread over the gates likewise.
+
+    Polarisation (``transmission``): SHV transmits H and V every pulse, the V port with the
+    phase ``transmit_differential_phase_deg``; AHV alternates H (even pulses) and V (odd),
+    and both ports receive every pulse. When the pattern carries complex co- and cross-polar
+    fields (the arrays, ``antenna.measured``), each cell's received channels are v = M s with
+    the two-way coupling M of those fields (:mod:`pasim_blocks.weather.polarimetry`): their
+    covariance, the integral over the cell's directions of M C_s M^H, is used at every level
+    (the expected correlations; the combined level's spectral matrix, 2 x 2 in SHV, 4 x 4 in
+    AHV for the stacked channels of both transmit states, each pulse keeping its state's
+    pair; the per-cell levels' Cholesky factor of each cell's channel covariance applied to
+    independent unit series of its spectrum). So cross-polarisation biases ZDR, rho_hv and
+    phi_DP as in a real radar. Without those fields (pencil and ideal antennas, or
+    ``cross_polar_coupling`` off) H and V are weighted by the squared co-polar power patterns
+    and their cross term by sqrt(Omega_H Omega_V) (exact for proportional patterns).
+
+    Gates inside the blind range (one pulse length) are zero. Each beam draws from its own
+    random streams (H and V apart). A truth without ZDR, RHOHV and PHIDP (single
+    polarisation), or a run that asks for none of them (nor, in AHV, for velocity or width),
+    skips the V channel.
+    """
+
+    truth = Input(TRUTH, doc="truth sweep")
+    beams = Input(BEAMS, doc="beam geometry")
+    pattern = Input(PATTERN, doc="one-way H and V power patterns")
+    range_response = Input(
+        RANGE_RESPONSE, doc="radiated pulse, receive filter and their point-target response"
+    )
+
+    iq = Output(IQ, doc="echo voltages at the receive filter's output")
+    signal_power = Output(SIGNAL_POWER, doc="expected echo power per gate")
+    echo_correlations = Output(ECHO_CORRELATIONS, doc="expected echo correlations per gate")
+    calibration = Output(CALIBRATION, doc="radar constant for power -> dBZ")
+
+    frequency_hz = Param(2.8e9, units="Hz", min=1e8, max=1e11, doc="carrier frequency")
+    peak_power_w = Param(700e3, units="W", min=1e-3, max=1e8, doc="peak transmit power")
+    loss_db = Param(0.0, units="dB", min=0.0, max=30.0, doc="two-way system losses")
+    method = Param(
+        "covariance",
+        type="str",
+        choices=METHODS,
+        doc="fidelity level: expected, combined, covariance (eq. 13-18), monte_carlo (eq. 5-12)",
+    )
+    drops_per_cell = Param(
+        256, type="int", min=1, max=100_000, doc="drops per truth cell (monte_carlo only)"
+    )
+    support_db = Param(
+        -100.0,
+        units="dB",
+        min=-200.0,
+        max=0.0,
+        doc="ignore truth radials whose two-way weight is below this level (from the peak)",
+    )
+    range_support_db = Param(
+        -80.0,
+        units="dB",
+        min=-150.0,
+        max=-20.0,
+        doc="range-response terms (gate offsets, sub-gate components, Doppler orders) below "
+        "this level from the strongest are dropped",
+    )
+    precision = Param(
+        "float32",
+        type="str",
+        choices=("float32", "float64"),
+        doc="working precision of the random draws and sums",
+    )
+    transmission = Param(
+        "shv",
+        type="str",
+        choices=MODES,
+        doc="polarisation of transmission: shv (H and V every pulse), ahv (H and V alternate, "
+        "H first)",
+    )
+    transmit_differential_phase_deg = Param(
+        0.0,
+        units="deg",
+        min=-360.0,
+        max=360.0,
+        doc="phase of the V port's excitation against the H port's in SHV (the system's "
+        "differential phase on transmit)",
+    )
+    cross_polar_coupling = Param(
+        True,
+        type="bool",
+        doc="couple H and V through the antenna's complex co- and cross-polar fields when the "
+        "pattern has them (false: co-polar power patterns only)",
+    )
+
+    # Fastest first, most faithful last; ``pasim tradeoff`` runs them all. -40 dB keeps the
+    # main lobe and first sidelobes of a -32 dB antenna and drops the far ones.
+    fidelity_ladder = (
+        ("expected", {"method": "expected", "support_db": -100.0, "precision": "float64"}),
+        ("combined-40dB", {"method": "combined", "support_db": -40.0, "precision": "float32"}),
+        ("combined", {"method": "combined", "support_db": -100.0, "precision": "float32"}),
+        ("combined-f64", {"method": "combined", "support_db": -100.0, "precision": "float64"}),
+        ("covariance", {"method": "covariance", "support_db": -100.0, "precision": "float32"}),
+        ("covariance-f64", {"method": "covariance", "support_db": -100.0, "precision": "float64"}),
+        ("monte_carlo", {"method": "monte_carlo", "support_db": -100.0, "precision": "float32"}),
+    )
+
+    transient = ("_prepared",)
+
+    def setup(self) -> None:
+        self._prepared: tuple[Any, Any] | None = None
+
+    def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
+        truth, beams = inputs["truth"], inputs["beams"]
+        pattern, response = inputs["pattern"], inputs["range_response"]
+        method = self.p["method"]
+        dtype = np.float32 if self.p["precision"] == "float32" else np.float64
+        lam = SPEED_OF_LIGHT / self.p["frequency_hz"]
+        prt = float(beams["prt"].values[0])
+        pulses = int(beams["pulses"].values)
+        rng_m = truth["range"].values
+        gate_m = float(truth.attrs["gate_width_m"])
+        width_deg = float(truth.attrs["radial_width_deg"])
+        az_truth = truth["azimuth"].values
+        dual = all(k in truth for k in POLARIMETRIC_FIELDS)
+        mode, beta = self.p["transmission"], float(self.p["transmit_differential_phase_deg"])
+        # AHV estimates velocity from the H and V co-polar pulses together (processor).
+        need_v = dual and (
+            chunk.wants(*POLARIMETRIC_FIELDS) or (mode == "ahv" and chunk.wants("VRADH", "WRADH"))
+        )
+        coupled = bool(self.p["cross_polar_coupling"]) and all(
+            k in pattern for k in ("co_polar", "cross_polar")
+        )
+
+        gain = 10 ** (pattern.attrs["gain_db"] / 10)
+        k0 = (
+            self.p["peak_power_w"]
+            * gain**2
+            * lam**2
+            * np.pi**5
+            * KW2
+            * 1e-18
+            / ((4 * np.pi) ** 3 * lam**4 * 10 ** (self.p["loss_db"] / 10))
+        )
+        n_b, n_g = beams.sizes["beam"], rng_m.size
+
+        # What depends only on the truth and the range response is prepared once and reused
+        # by every chunk (and, with threads, by every thread): a pure function of the inputs,
+        # memoised.
+        key = (id(truth), id(response), k0, prt, lam, pulses, method, dtype)
+        key += (self.p["range_support_db"], self.p["drops_per_cell"])
+        if self._prepared is None or self._prepared[0] != key:
+            ranges = range_model(
+                response,
+                gate_m,
+                lam,
+                _largest_speed(truth),
+                floor_db=self.p["range_support_db"],
+            )
+            cells = TruthCells(
+                truth, ranges, k0, prt, lam, pulses, method, self.p["drops_per_cell"], dtype
+            )
+            self._prepared = (key, (ranges, cells))
+        ranges, cells = self._prepared[1]
+
+        d_az = pattern["azimuth_offset_deg"].values
+        d_el = pattern["elevation_offset_deg"].values
+        support = max(abs(d_az[0]), abs(d_az[-1])) + width_deg / 2
+        cdtype = np.complex64 if dtype == np.float32 else np.complex128
+        _check_coverage(az_truth, width_deg, beams["azimuth"].values, support - width_deg / 2)
+        # Stored polarisation-major, handed on as a (beam, range, pulse, polarization) view:
+        # each channel's series stay contiguous for the draws and for the blocks downstream.
+        iq = np.zeros((n_b, 2, n_g, 0 if method == "expected" else pulses), cdtype)
+        corr = np.zeros((n_b, n_g, len(CORRELATION_PRODUCTS)), np.complex128)
+        drawn = 0 if method == "expected" else len(receive_channels(mode, need_v))
+        for i, beam in enumerate(chunk.beams):
+            az_b = float(beams["azimuth"].values[i])
+            el_b = float(beams["elevation"].values[i])
+            delta = circular_difference(az_truth, az_b, 360.0)
+            near = np.flatnonzero(np.abs(delta) <= support)
+            profile = azimuth_profile(pattern["power"].values[i], d_el, el_b)
+            omega = cell_solid_angles(profile, d_az, delta[near], width_deg)
+            keep = omega.max(axis=0) >= omega.max() * 10 ** (self.p["support_db"] / 10)
+            near, omega = near[keep], omega[:, keep]
+            coupling = None
+            if coupled:
+                # The expected correlations need both co-polar channels whatever is drawn.
+                chans = receive_channels(mode, True)[: max(2, drawn)]
+                coupling = Coupling(
+                    len(chans),
+                    coupling_weights(
+                        pattern["co_polar"].values[i],
+                        pattern["cross_polar"].values[i],
+                        d_az,
+                        d_el,
+                        el_b,
+                        delta[near],
+                        width_deg,
+                        mode,
+                        beta,
+                        chans,
+                    ),
+                )
+            terms = ranges.power.shape[0]
+            alternate = mode == "ahv"
+            expected = (
+                expected_correlations(cells, near, omega, terms, alternate)
+                if coupling is None
+                else expected_correlations_coupled(cells, near, coupling, terms, alternate)
+            )
+            corr[i] = range_correlate(expected, ranges.power.T, n_g, exact=True)
+            if not alternate:
+                corr[i, :, len(SHV_PRODUCTS) :] = np.nan
+            if coupling is None and mode == "shv" and beta:
+                # The V port's echo carries the transmit differential phase.
+                corr[i] *= _beta_factors(beta)
+            if method == "expected" or near.size == 0:
+                continue
+            gen_h, gen_v = chunk.rng(int(beam)), chunk.rng(int(beam), 1)
+            draw = BeamDraw(cells, near, omega, ranges, gen_h, gen_v, need_v, coupling, drawn, mode)
+            if coupling is None:
+                if method == "combined":
+                    draw_combined(iq[i], draw)
+                    draw_tones(iq[i], draw)
+                draw_per_cell(iq[i], draw)
+                if mode == "shv" and beta:
+                    iq[i, 1] *= np.exp(1j * np.deg2rad(beta)).astype(cdtype)
+                elif mode == "ahv":
+                    # Without cross-polar fields a port receives nothing of the other
+                    # polarisation's pulses.
+                    iq[i, 0, :, 1::2] = 0
+                    iq[i, 1, :, 0::2] = 0
+            else:
+                if method == "combined":
+                    draw_combined_coupled(iq[i], draw)
+                    draw_tones_coupled(iq[i], draw)
+                draw_per_cell_coupled(iq[i], draw)
+
+        # The receiver is off while the pulse goes out: nothing is received inside the blind
+        # range (the processor masks those gates and the scorer never scores them).
+        blind_m = float(response.attrs["blind_range_m"])
+        blind = rng_m < blind_m
+        iq[:, :, blind] = 0
+        corr[:, blind] = 0
+        omega_cal = pattern["calibration_solid_angle_sr"].values  # beam x polarisation
+        constant_db = 10 * np.log10(k0 * omega_cal * ranges.total_m)
+        calibration = xr.Dataset(
+            {
+                "radar_constant_db": (
+                    ("beam", "polarization"),
+                    constant_db.astype(np.float64),
+                    {"units": "dB"},
+                )
+            },
+            coords={
+                "range": ("range", rng_m, {"units": "meters"}),
+                "polarization": list(POLARIZATIONS),
+            },
+            attrs={
+                "wavelength_m": lam,
+                "prt_s": prt,
+                "dual_polarization": int(dual),
+                "blind_range_m": blind_m,
+                "calibration": str(pattern.attrs["calibration"]),
+                "transmission": mode,
+                "transmit_differential_phase_deg": beta,
+                "cross_polar_coupling": int(coupled),
+            },
+        )
+        power = corr[..., :2].real.astype(np.float32)
+        return {
+            "iq": np.moveaxis(iq.astype(np.complex64, copy=False), 1, -1),
+            "signal_power": power,
+            "echo_correlations": corr,
+            "calibration": calibration,
+        }
+
+
+def _largest_speed(truth: xr.Dataset) -> float:
+    """The largest |radial velocity| of a cell with echo (0 without velocities)."""
+    if "VRADH" not in truth:
+        return 0.0
+    v = np.abs(truth["VRADH"].values[np.isfinite(truth["DBZH"].values)])
+    v = v[np.isfinite(v)]
+    return float(v.max()) if v.size else 0.0
+
+
+def _check_coverage(
+    az_truth: np.ndarray, width_deg: float, az_beams: np.ndarray, support_deg: float
+) -> None:
+    """Refuse beams whose pattern reaches beyond a truth read for a sector only.
+
+    A truth read for a sector (``truth.azimuth_start_deg``) ends somewhere; a beam whose
+    pattern grid reaches past that end would silently miss the echo there.
+    """
+    az = np.sort(np.mod(az_truth, 360.0))
+    if az.size < 2:
+        return
+    gaps = np.diff(np.concatenate([az, [az[0] + 360.0]]))
+    k = int(np.argmax(gaps))
+    if gaps[k] <= 2.5 * width_deg:
+        return  # the whole circle
+    start = az[(k + 1) % az.size] - width_deg / 2
+    extent = 360.0 - gaps[k] + width_deg
+    off = np.mod(az_beams - support_deg - start, 360.0)
+    bad = off + 2 * support_deg > extent + 1e-6
+    if bad.any():
+        b = float(az_beams[np.flatnonzero(bad)[0]])
+        raise ValueError(
+            f"the truth covers azimuth {start % 360:.1f} to {(start + extent) % 360:.1f} deg, but "
+            f"the beam at {b:.1f} deg has a pattern support of +-{support_deg:g} deg; widen the "
+            "truth's margin_deg (or read the whole sweep)"
+        )
+
+
+def _beta_factors(beta_deg: float) -> np.ndarray:
+    """Factors on the correlation products when the V port's echo is multiplied by e^(j beta)."""
+    t = np.exp(1j * np.deg2rad(beta_deg))
+    factors = {"R0_HV": t, "R1_HV": t, "R1_VH": np.conj(t)}
+    return np.array([factors.get(k, 1.0) for k in CORRELATION_PRODUCTS])
