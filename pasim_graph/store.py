@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import os
 import shutil
 import time
 import warnings
@@ -304,6 +305,9 @@ def discard_store(lock: StoreLock) -> None:
     store = lock.path.parent
     if not (lock.fresh and is_store(store)) or run_state(store) is not None:
         return
+    # zarr writes a layout's files concurrently: when one write failed, others may still be
+    # landing. Wait until the tree is still, so nothing is written after it is removed.
+    settle(store)
     clear_store(store)
     (store / MARKER).unlink()
     lock.release()
@@ -314,6 +318,27 @@ def discard_store(lock: StoreLock) -> None:
             break  # not empty: something else is in it now
 
 
+def settle(path: Path, quiet_s: float = 0.2, limit_s: float = 5.0) -> None:
+    """Wait until nothing under ``path`` has changed for ``quiet_s`` (at most ``limit_s``)."""
+
+    def snapshot() -> set[tuple[str, int, int]]:
+        out = set()
+        for dirpath, _, files in os.walk(path):
+            for name in files:
+                with contextlib.suppress(OSError):
+                    st = os.lstat(os.path.join(dirpath, name))
+                    out.add((os.path.join(dirpath, name), st.st_size, st.st_mtime_ns))
+        return out
+
+    start, last = time.monotonic(), snapshot()
+    while time.monotonic() - start < limit_s:
+        time.sleep(quiet_s)
+        now = snapshot()
+        if now == last:
+            return
+        last = now
+
+
 def clear_store(path: Path) -> None:
     """Remove a store's contents but its marker and lock (only ever called on our stores)."""
     if not is_store(path):
@@ -321,9 +346,25 @@ def clear_store(path: Path) -> None:
     for name in set(_entries(path)) - {LOCK, MARKER}:
         entry = path / name
         if entry.is_dir() and not entry.is_symlink():
-            shutil.rmtree(entry)
+            _rmtree(entry)
         else:
-            entry.unlink()
+            entry.unlink(missing_ok=True)
+
+
+def _rmtree(path: Path) -> None:
+    """Remove a tree; files that vanish meanwhile are fine (zarr's writer threads of a run
+    that failed may still be renaming their partial files into place)."""
+    import sys
+
+    def missing_ok(func: Any, name: str, exc: Any) -> None:
+        err = exc if isinstance(exc, BaseException) else exc[1]
+        if not isinstance(err, FileNotFoundError):
+            raise err
+
+    if sys.version_info >= (3, 12):
+        shutil.rmtree(path, onexc=missing_ok)
+    else:
+        shutil.rmtree(path, onerror=missing_ok)
 
 
 def foreign_entries(path: Path) -> list[str]:
@@ -461,8 +502,22 @@ def create_volume(
             encoding={n: encoding(v.dtype) for n, v in ds.variables.items()},
             write_empty_chunks=True,
         )
-        root.to_zarr(
-            path, mode="a", consolidated=False, encoding=root_encoding, write_empty_chunks=True
+        rest = [n for n in root.data_vars if n != DONE]
+        root[rest].to_zarr(
+            path,
+            mode="a",
+            consolidated=False,
+            encoding={n: e for n, e in root_encoding.items() if n != DONE},
+            write_empty_chunks=True,
+        )
+        # The done flags are the very last thing of the layout: their array existing is what
+        # says the template is whole (run_state).
+        xr.Dataset({DONE: root[DONE]}, attrs=root.attrs).to_zarr(
+            path,
+            mode="a",
+            consolidated=False,
+            encoding={DONE: root_encoding[DONE]},
+            write_empty_chunks=True,
         )
 
 
