@@ -9,9 +9,10 @@ moments on one grid.
 from __future__ import annotations
 
 import bz2
-import gzip
+import math
 import struct
 import zlib
+from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -91,6 +92,10 @@ _MAX_VCP_CUTS = 25
 # Radial status: start of elevation / volume / last elevation; end of elevation / volume.
 _CUT_START = (0, 3, 5)
 _CUT_END = (2, 4)
+
+
+class DamagedRecord(ValueError):
+    """A Level-II message decodes but holds values no radar records."""
 
 
 @dataclass(frozen=True)
@@ -192,17 +197,49 @@ class _Volume:
     icao: str
 
 
+#: Level-II volumes are a few to a hundred megabytes; a file far larger is not one, and is
+#: refused before it is read into memory.
+MAX_VOLUME_BYTES = 1 << 30
+#: No volume decompresses beyond this (a record of a real one is about a megabyte): a bound
+#: on what a damaged or hostile file can make the reader allocate.
+MAX_DECOMPRESSED_BYTES = 2 << 30
+_MAX_RECORD_BYTES = 64 << 20
+#: What a radial's moment may span: NEXRAD gates reach 460 km (1840 gates of 250 m); these
+#: bounds leave room for other Level-II writers and refuse what no radar records.
+_MAX_GATES = 4000
+_MAX_RANGE_M = 1_000_000.0
+
+
 def _open_volume(path: Path) -> bytes:
-    """Return the file's bytes with any whole-file gzip/bzip2 wrapper removed, validated."""
+    """Return the file's bytes with any whole-file gzip/bzip2 wrapper removed, validated.
+
+    The first bytes are checked before the file is read: a file that is neither a Level-II
+    volume nor a gzip or bzip2 wrapper is refused without reading the rest, and so is one
+    larger than any volume.
+    """
     if not path.is_file():
         raise FileNotFoundError(f"NEXRAD Level-II file not found (no such file): {path}")
-    raw = path.read_bytes()
+    with path.open("rb") as f:
+        head = f.read(_VOLUME_HEADER_BYTES)
+        wrapped = head[:2] == b"\x1f\x8b" or head[:3] == b"BZh"
+        if not wrapped and not head.startswith(_VOLUME_MAGIC):
+            raise ValueError(
+                f"{path} is not a NEXRAD Level-II (Archive II) volume: expected a 24-byte volume "
+                f"header starting with 'AR2V' or 'ARCHIVE2', found {head[:8]!r}"
+            )
+        size = path.stat().st_size
+        if size > MAX_VOLUME_BYTES:
+            raise ValueError(
+                f"{path} is {size / 2**30:.1f} GiB: larger than any Level-II volume "
+                f"({MAX_VOLUME_BYTES / 2**30:.0f} GiB at most); is it the right file?"
+            )
+        raw = head + f.read()
     try:
         # Archive copies are often wrapped whole in gzip (.gz) or bzip2 (.bz2).
         if raw[:2] == b"\x1f\x8b":
-            raw = gzip.decompress(raw)
+            raw = _bounded(zlib.decompressobj(wbits=31), raw, path, MAX_DECOMPRESSED_BYTES)
         elif raw[:3] == b"BZh":
-            raw = bz2.decompress(raw)
+            raw = _bounded(bz2.BZ2Decompressor(), raw, path, MAX_DECOMPRESSED_BYTES)
     except (OSError, EOFError, zlib.error) as err:
         raise ValueError(f"{path}: corrupt gzip/bzip2 wrapper ({err})") from err
     if not raw.startswith(_VOLUME_MAGIC) or len(raw) < _VOLUME_HEADER_BYTES:
@@ -211,6 +248,28 @@ def _open_volume(path: Path) -> bytes:
             f"header starting with 'AR2V' or 'ARCHIVE2', found {raw[:8]!r}"
         )
     return raw
+
+
+def _bounded(
+    decompressor: Any, data: bytes | memoryview, path: Path, limit: int, whole: bool = True
+) -> bytes:
+    """Decompress ``data`` (one stream), refusing output beyond ``limit`` bytes.
+
+    With ``whole`` the stream must end inside ``data`` (a whole-file wrapper cut short is
+    an error); without, what a cut-short record holds is returned.
+    """
+    if isinstance(decompressor, bz2.BZ2Decompressor):
+        out = decompressor.decompress(data, max_length=limit + 1)
+    else:
+        out = decompressor.decompress(data, limit + 1)
+    if len(out) > limit:
+        raise ValueError(
+            f"{path}: decompresses to more than {limit / 2**20:.0f} MiB, more than any Level-II "
+            "volume holds: refused (a damaged or hostile file)"
+        )
+    if whole and not decompressor.eof:
+        raise EOFError("the compressed stream ends before its end marker (a truncated file)")
+    return out
 
 
 class _Truncation:
@@ -243,7 +302,13 @@ def _records(raw: bytes, path: Path, cut: _Truncation | None = None) -> Iterator
         try:
             # A decompressor object returns what it can of a record cut short by a
             # truncated download; the sweep being read then ends incomplete.
-            yield bz2.BZ2Decompressor().decompress(view[pos + 4 : pos + 4 + size])
+            yield _bounded(
+                bz2.BZ2Decompressor(),
+                view[pos + 4 : pos + 4 + size],
+                path,
+                _MAX_RECORD_BYTES,
+                whole=False,
+            )
         except OSError as err:
             raise ValueError(f"{path}: corrupt bzip2 record at byte {pos} ({err})") from err
         pos += 4 + size
@@ -301,6 +366,10 @@ def _radial(record: bytes, at: int, msg_type: int) -> _Radial:
         h = _MSG1.unpack_from(record, body)
         ms, date, status, number = h[0], h[1], h[5], h[7]
         azimuth, elevation = h[3] * _MSG1_ANGLE_DEG, h[6] * _MSG1_ANGLE_DEG
+    if not (math.isfinite(azimuth) and 0.0 <= azimuth < 360.0):
+        raise DamagedRecord(f"azimuth {azimuth!r} deg is not in [0, 360)")
+    if not (math.isfinite(elevation) and -10.0 <= elevation <= 95.0):
+        raise DamagedRecord(f"elevation {elevation!r} deg is not in [-10, 95]")
     # The date counts days from 1970-01-01 as day 1.
     time_ms = (int(date) - 1) * 86_400_000 + int(ms)
     return _Radial(
@@ -365,7 +434,14 @@ def scan_volume(path: Path, elevation_deg: float) -> _Volume:
                 continue
             if msg_type not in (1, 31):
                 continue
-            radial = _radial(record, at, msg_type)
+            try:
+                radial = _radial(record, at, msg_type)
+            except DamagedRecord as err:
+                n = sum(len(g[0]) for g in groups) + len(current or []) + 1
+                raise ValueError(
+                    f"{path}: radial {n} of the file (message {msg_type}) is damaged: {err}; "
+                    "refusing the file rather than placing that radial"
+                ) from None
             if radial.status in _CUT_START:
                 if current is not None:
                     groups.append((current, False))  # a cut that never ended
@@ -416,6 +492,8 @@ def scan_volume(path: Path, elevation_deg: float) -> _Volume:
         ]
     except struct.error as err:
         raise ValueError(f"{path}: could not decode the Level-II headers ({err!r})") from err
+    except DamagedRecord as err:
+        raise ValueError(f"{path}: a damaged record: {err}; refusing the file") from None
     return _Volume(cuts, icao)
 
 
@@ -434,7 +512,9 @@ def _blocks(r: _Radial) -> dict[str, _Block]:
             ("WRADH", sw_ptr, dop_n, dop_first, dop_step, 2.0, 129.0),
         ]
         return {
-            name: _Block(body + ptr, n, float(first), float(step), 8, scale, offset)
+            name: _checked(
+                r, name, _Block(body + ptr, n, float(first), float(step), 8, scale, offset)
+            )
             for name, ptr, n, first, step, scale, offset in slots
             if ptr and n
         }
@@ -449,10 +529,38 @@ def _blocks(r: _Radial) -> dict[str, _Block]:
         _, _, n, first, step, _, _, _, word, scale, offset = _GENERIC_BLOCK.unpack_from(
             r.record, block_at
         )
-        out[name] = _Block(
-            block_at + _GENERIC_BLOCK.size, n, float(first), float(step), word, scale, offset
+        out[name] = _checked(
+            r,
+            name,
+            _Block(
+                block_at + _GENERIC_BLOCK.size, n, float(first), float(step), word, scale, offset
+            ),
         )
     return out
+
+
+def _checked(r: _Radial, name: str, block: _Block) -> _Block:
+    """Refuse a moment block whose geometry or scaling no radar records (a damaged record)."""
+    where = f"{name} of the radial at azimuth {r.azimuth_deg:.2f} deg (cut {r.elevation_number})"
+    end = block.first_gate_m + block.gate_step_m * block.ngates
+    problem = None
+    if not 0 < block.ngates <= _MAX_GATES:
+        problem = f"{block.ngates} gates (at most {_MAX_GATES})"
+    elif not 0 < block.gate_step_m <= 5000 or not abs(block.first_gate_m) <= 50_000:
+        problem = f"gates from {block.first_gate_m:g} m every {block.gate_step_m:g} m"
+    elif end > _MAX_RANGE_M:
+        problem = (
+            f"{block.ngates} gates reach {end / 1000:,.0f} km (at most {_MAX_RANGE_M / 1000:,.0f})"
+        )
+    elif block.word_size in (8, 16) and block.data_at + block.ngates * block.word_size // 8 > len(
+        r.record
+    ):
+        problem = "its data run past the end of its record"
+    elif not (math.isfinite(block.scale) and block.scale != 0 and math.isfinite(block.offset)):
+        problem = f"scale {block.scale!r} and offset {block.offset!r}"
+    if problem:
+        raise DamagedRecord(f"{where}: {problem}")
+    return block
 
 
 def _block_pointers(r: _Radial) -> tuple[int, ...]:
@@ -487,7 +595,18 @@ def _describe_cut(
         if abs(vcp_angle - measured) <= _MAX_ELEVATION_MISMATCH_DEG:
             fixed = vcp_angle
 
-    moments = frozenset(_blocks(first))
+    # A cut's moments are what its radials carry (the first and 16 more across the cut; the
+    # radials a run reads are all checked when read): a first radial that disagrees with the
+    # rest is a damaged record, not a single-polarisation cut.
+    sample = [first, *radials[1 :: max(1, len(radials) // 16)]]
+    carried = [frozenset(_blocks(r)) for r in sample]
+    moments, count = Counter(carried).most_common(1)[0]
+    if carried[0] != moments and count > len(sample) // 2:
+        raise DamagedRecord(
+            f"the first radial of cut {first.elevation_number} (azimuth {first.azimuth_deg:.2f} "
+            f"deg) carries {', '.join(sorted(carried[0])) or 'no moment'} where {count} of "
+            f"{len(sample)} radials sampled across the cut carry {', '.join(sorted(moments))}"
+        )
     if first.legacy:
         nyquist_raw = _MSG1.unpack_from(first.record, first.at + _MSG_HEADER.size)[-1]
         radial_width = 1.0  # message 1 predates super-resolution

@@ -44,6 +44,7 @@ from .level2 import (
     FIELD_NAMES,
     POLARIMETRIC_FIELDS,
     SURVEILLANCE_FIELDS,
+    DamagedRecord,
     choose_cuts,
     cut_data,
     scan_volume,
@@ -218,6 +219,8 @@ def read_truth_sweep(
             margin_deg=margin,
             nyquist_velocity_ms=nyquist_cut.nyquist_velocity_ms,
         )
+    except DamagedRecord as err:
+        raise ValueError(f"{path}: a damaged record: {err}; refusing the file") from None
     except (struct.error, IndexError, ValueError) as err:
         # A block pointer or gate count that runs past its message: a corrupt record.
         wanted = [c.index for c in (surveillance, doppler) if c is not None]
