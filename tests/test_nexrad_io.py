@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 from pasim_blocks.truth import level2
 from pasim_blocks.truth.gridding import (
-    _drop_duplicate_radials,
     _nearest_circular,
-    _sector_order,
     assemble,
+    drop_duplicate_radials,
+    sector_order,
 )
 from pasim_blocks.truth.level2 import (
     FIELD_NAMES,
@@ -263,12 +263,12 @@ def test_wrapping_sector_in_scan_order(truth_file: Path) -> None:
 
 def test_margin_and_full_circle_selection(truth: TruthSweep) -> None:
     az = truth.azimuth_deg
-    plain = _sector_order(az, (240.0, 330.0), 0.0)
-    wider = _sector_order(az, (240.0, 330.0), 1.0)
+    plain = sector_order(az, (240.0, 330.0), 0.0)
+    wider = sector_order(az, (240.0, 330.0), 1.0)
     assert wider.size - plain.size == 4  # two 0.5 deg radials on each side
     assert az[wider[0]] >= 239.0 and az[wider[-1]] <= 331.0
-    np.testing.assert_array_equal(_sector_order(az, (0.0, 360.0), 0.0), np.arange(az.size))
-    np.testing.assert_array_equal(_sector_order(az, None, 0.0), np.arange(az.size))
+    np.testing.assert_array_equal(sector_order(az, (0.0, 360.0), 0.0), np.arange(az.size))
+    np.testing.assert_array_equal(sector_order(az, None, 0.0), np.arange(az.size))
 
 
 def test_non_split_cut_is_used_alone(truth_file: Path) -> None:
@@ -628,9 +628,9 @@ def test_assemble_wrapping_sector_order() -> None:
 def test_overlapping_radials_are_dropped() -> None:
     # A 721-radial sweep: the last radial repeats the first azimuth.
     az = np.append(np.arange(0.25, 360.0, 0.5), 0.27)
-    keep = _drop_duplicate_radials(az, 0.5)
+    keep = drop_duplicate_radials(az, 0.5)
     assert keep.size == 720 and az.size - 1 not in keep
-    np.testing.assert_array_equal(_drop_duplicate_radials(az[:-1], 0.5), np.arange(720))
+    np.testing.assert_array_equal(drop_duplicate_radials(az[:-1], 0.5), np.arange(720))
 
 
 def test_equal_azimuths_pair_with_the_earlier_radial() -> None:

@@ -31,9 +31,9 @@ def assemble(
     Radials come in time order. Only the surveillance radials in the sector, and the
     Doppler radials paired with them, are read.
     """
-    azimuth = _wrap360(surveillance.azimuth_deg.astype(np.float64))
-    keep = _drop_duplicate_radials(azimuth, radial_width_deg)
-    order = keep[_sector_order(azimuth[keep], sector_deg, margin_deg)]
+    azimuth = wrap360(surveillance.azimuth_deg.astype(np.float64))
+    keep = drop_duplicate_radials(azimuth, radial_width_deg)
+    order = keep[sector_order(azimuth[keep], sector_deg, margin_deg)]
     azimuth = azimuth[order]
 
     own_names = SURVEILLANCE_FIELDS + (DOPPLER_FIELDS if doppler is None else ())
@@ -51,7 +51,7 @@ def assemble(
         # A cut that measured everything at once: its own radials, its own gates.
         fields.update(_doppler_on_grid(own, range_m, grid.gate_step_m, nyquist_velocity_ms))
     else:
-        src_az = _wrap360(doppler.azimuth_deg.astype(np.float64))
+        src_az = wrap360(doppler.azimuth_deg.astype(np.float64))
         rows = _nearest_circular(azimuth, src_az, 0.5 * radial_width_deg)
         paired = rows >= 0
         needed = np.unique(rows[paired])
@@ -62,7 +62,7 @@ def assemble(
             out = np.full((azimuth.size, range_m.size), np.nan, dtype=np.float32)
             out[paired] = values[position]
             fields[name] = out
-    return azimuth, range_m, _clean(fields)
+    return azimuth, range_m, clean_fields(fields)
 
 
 def _cover_index(
@@ -211,7 +211,7 @@ def _velocity_difference(a: np.ndarray, b: np.ndarray, nyquist_ms: float) -> np.
     return d
 
 
-def _clean(fields: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+def clean_fields(fields: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Replace physically impossible values by NaN and wrap PHIDP into [0, 360)."""
     out: dict[str, np.ndarray] = {}
     for name, values in fields.items():
@@ -224,7 +224,7 @@ def _clean(fields: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
             v[~((v > _RHOHV_LIMITS[0]) & (v <= _RHOHV_LIMITS[1]))] = np.nan
         elif name == "PHIDP":
             v[~np.isfinite(v)] = np.nan
-            v = _wrap360(v)
+            v = wrap360(v)
         elif name == "WRADH":
             # Width shares velocity's code table, so codes below 129 decode to negatives.
             v[~(v >= 0.0)] = np.nan
@@ -243,7 +243,7 @@ def _clean(fields: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
 # ------------------------------------------------------------------ geometry helpers
 
 
-def _wrap360(angle: np.ndarray) -> np.ndarray:
+def wrap360(angle: np.ndarray) -> np.ndarray:
     """Wrap angles into [0, 360) in their own dtype (NaN stays NaN); returns a new array."""
     wrapped = np.array(angle, copy=True)
     # Only the angles outside the turn: np.mod is slow on the NaN of a masked field, and
@@ -273,7 +273,7 @@ def check_sector(
     return (az0, az1), margin
 
 
-def _sector_order(
+def sector_order(
     azimuth: np.ndarray, sector_deg: tuple[float, float] | None, margin_deg: float
 ) -> np.ndarray:
     """Indices of the radials inside the sector, in clockwise order from its start."""
@@ -292,7 +292,7 @@ def _sector_order(
     return inside[np.argsort(offset[inside], kind="stable")]
 
 
-def _drop_duplicate_radials(azimuth: np.ndarray, radial_width_deg: float) -> np.ndarray:
+def drop_duplicate_radials(azimuth: np.ndarray, radial_width_deg: float) -> np.ndarray:
     """Indices of radials to keep when a sweep overlaps itself (e.g. 721 radials).
 
     Of two radials closer than half a radial spacing, the later one (higher index, as rows
@@ -338,7 +338,7 @@ def nominal_spacing(azimuth: np.ndarray) -> float:
     """Nominal radial spacing when the headers do not give it: 0.5 or 1 deg if close."""
     if azimuth.size < 2:
         return float("nan")
-    ring = np.sort(_wrap360(azimuth.astype(np.float64)))
+    ring = np.sort(wrap360(azimuth.astype(np.float64)))
     median = float(np.median(np.diff(ring)))
     for nominal in (0.5, 1.0):
         if abs(median - nominal) <= 0.1 * nominal:

@@ -32,7 +32,11 @@ def truth_dataset(
 
 
 class NexradTruth(Block):
-    """Fields of one NEXRAD Level-II sweep, split cuts merged, cleaned, on their polar grid.
+    """Fields of one radar sweep (NEXRAD Level-II split cuts merged), cleaned, on their polar grid.
+
+    A file in another format (CfRadial 1 and 2, ODIM_H5, IRIS/Sigmet, UF, Rainbow, GAMIC,
+    Furuno) is read through xradar, its fields mapped onto the six moments by name or standard
+    name (:mod:`pasim_blocks.truth.radar_files`); what follows describes Level-II.
 
     Reads the surveillance and Doppler cuts nearest ``elevation_deg`` (message 31, or a
     legacy message 1 file), merges them by azimuth and range, masks below-threshold and
@@ -50,7 +54,14 @@ class NexradTruth(Block):
 
     truth = Output(TRUTH, doc="truth fields on the radar's polar grid")
 
-    path = Param("", type="path", doc="NEXRAD Level-II file; empty = the bundled KLBB scene")
+    path = Param(
+        "",
+        type="path",
+        doc=(
+            "radar file: NEXRAD Level-II, or any format xradar reads (CfRadial, ODIM_H5, "
+            "IRIS, UF, ...); empty = the bundled KLBB scene"
+        ),
+    )
     elevation_deg = Param(
         0.5, units="deg", min=-2.0, max=90.0, doc="elevation of the sweep to use (nearest cut)"
     )
@@ -105,9 +116,14 @@ class NexradTruth(Block):
 
     def load(self) -> Any:
         from .nexrad_io import POLARIMETRIC_FIELDS, read_truth_sweep
+        from .radar_files import is_level2, read_radar_sweep
 
-        sweep = read_truth_sweep(
-            self.p["path"] or DEFAULT_SCENE,
+        path = self.p["path"] or DEFAULT_SCENE
+        # Level-II through the project's own reader (it beats xradar's there); any other
+        # radar file through xradar's backend for its format.
+        reader = read_truth_sweep if is_level2(path) else read_radar_sweep
+        sweep = reader(
+            path,
             self.p["elevation_deg"],
             sector_deg=self.sector(),
             margin_deg=self.p["margin_deg"],
@@ -124,6 +140,14 @@ class NexradTruth(Block):
             missing = ", ".join(n for n in POLARIMETRIC_FIELDS if n not in present)
             warnings.warn(
                 f"truth {sweep.source}: polarimetric fields incomplete (no {missing})",
+                RunNote,
+                stacklevel=2,
+            )
+        if "WRADH" not in sweep.fields or "VRADH" not in sweep.fields:
+            missing = [n for n in ("VRADH", "WRADH") if n not in sweep.fields]
+            warnings.warn(
+                f"truth {sweep.source}: no {' or '.join(missing)}; the weather channel takes "
+                "velocity 0 m/s and width 1 m/s there, and they are not scored",
                 RunNote,
                 stacklevel=2,
             )

@@ -1,0 +1,307 @@
+"""Truth from any radar file xradar opens: CfRadial 1 and 2, ODIM_H5, IRIS/Sigmet, UF,
+Rainbow, GAMIC, Furuno (NEXRAD Level-II goes to the project's own reader, which beats
+xradar's there: :mod:`pasim_blocks.truth.nexrad_io`).
+
+The file's format is told from its first bytes (a gzip wrapper is looked through), the
+backends that can read such a file are tried in turn, and the sweep nearest the requested
+elevation is taken. Its fields are mapped onto the six moments by name (the standard names
+and the common aliases: ``reflectivity``, ``differential_reflectivity``, ``TH``, ``UPHIDP``,
+...) or by CF standard name; a moment the file lacks is absent (the run is then single
+polarisation, or without width, and says so once), never guessed. The site's position, the
+Nyquist velocity and the radar's frequency are read where the file has them.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import gzip
+import tempfile
+import warnings
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .gridding import (
+    check_sector,
+    clean_fields,
+    drop_duplicate_radials,
+    gate_width,
+    nominal_spacing,
+    sector_order,
+    wrap360,
+)
+from .level2 import FIELD_NAMES
+from .nexrad_io import TruthSweep
+
+#: Names a field may have in a file, per moment, in order of preference (matched without
+#: regard to case). ``TH``/``DBTH`` (total power, no clutter filter) only when there is no
+#: ``DBZH``; ``UPHIDP`` (unfiltered) only without ``PHIDP``.
+ALIASES: dict[str, tuple[str, ...]] = {
+    "DBZH": (
+        "DBZH",
+        "reflectivity",
+        "corrected_reflectivity",
+        "DBZ",
+        "REF",
+        "ZH",
+        "CZ",
+        "DZ",
+        "TH",
+        "DBTH",
+        "total_power",
+    ),
+    "ZDR": ("ZDR", "differential_reflectivity", "corrected_differential_reflectivity", "DR"),
+    "RHOHV": ("RHOHV", "cross_correlation_ratio", "copol_correlation_coeff", "RHO", "RH"),
+    "PHIDP": ("PHIDP", "differential_phase", "corrected_differential_phase", "PHI", "UPHIDP", "PH"),
+    "VRADH": ("VRADH", "velocity", "corrected_velocity", "VRAD", "VEL", "VR"),
+    "WRADH": ("WRADH", "spectrum_width", "WRAD", "WIDTH", "SW"),
+}
+#: CF / xradar standard names per moment, tried when no name matches.
+STANDARD_NAMES: dict[str, tuple[str, ...]] = {
+    "DBZH": ("radar_equivalent_reflectivity_factor_h", "equivalent_reflectivity_factor"),
+    "ZDR": ("radar_differential_reflectivity_hv", "log_differential_reflectivity_hv"),
+    "RHOHV": ("radar_correlation_coefficient_hv", "cross_correlation_ratio_hv"),
+    "PHIDP": ("radar_differential_phase_hv", "differential_phase_hv"),
+    "VRADH": (
+        "radial_velocity_of_scatterers_away_from_instrument_h",
+        "radial_velocity_of_scatterers_away_from_instrument",
+    ),
+    "WRADH": ("radar_doppler_spectrum_width_h", "doppler_spectrum_width"),
+}
+
+_MAX_ELEVATION_MISMATCH_DEG = 1.0
+#: A gzip-wrapped file is unpacked to a temporary file (xradar's backends read paths);
+#: no radar sweep file is larger than this.
+_MAX_UNPACKED_BYTES = 2 << 30
+
+
+def _backends() -> dict[str, Callable[..., Any]]:
+    import xradar.io as xio
+
+    names = {
+        "CfRadial 1": "open_cfradial1_datatree",
+        "ODIM_H5": "open_odim_datatree",
+        "GAMIC": "open_gamic_datatree",
+        "IRIS/Sigmet": "open_iris_datatree",
+        "UF": "open_uf_datatree",
+        "Rainbow": "open_rainbow_datatree",
+        "Furuno": "open_furuno_datatree",
+    }
+    return {label: getattr(xio, fn) for label, fn in names.items() if hasattr(xio, fn)}
+
+
+def candidate_formats(head: bytes, path: Path) -> list[str]:
+    """The formats a file may be in, from its first bytes (most likely first)."""
+    if path.is_dir():
+        return ["CfRadial 2 (Zarr)"]
+    if head.startswith(b"\x89HDF"):
+        return ["ODIM_H5", "GAMIC", "CfRadial 1"]
+    if head.startswith(b"CDF"):
+        return ["CfRadial 1"]
+    if head[:2] == b"UF" or head[4:6] == b"UF":
+        return ["UF"]
+    if head.lstrip().startswith((b"<volume", b"<?xml")):
+        return ["Rainbow"]
+    return ["IRIS/Sigmet", "Furuno", "UF", "CfRadial 1"]
+
+
+@contextlib.contextmanager
+def _unwrapped(path: Path) -> Iterator[Path]:
+    """``path`` itself, or a temporary unpacked copy of a gzip-wrapped file."""
+    with path.open("rb") as f:
+        wrapped = f.read(2) == b"\x1f\x8b"
+    if not wrapped:
+        yield path
+        return
+    with tempfile.TemporaryDirectory(prefix="pasim-truth-") as tmp:
+        out = Path(tmp) / path.name.removesuffix(".gz")
+        with gzip.open(path, "rb") as src, out.open("wb") as dst:
+            copied = 0
+            while piece := src.read(1 << 20):
+                copied += len(piece)
+                if copied > _MAX_UNPACKED_BYTES:
+                    raise ValueError(
+                        f"{path}: unpacks to more than {_MAX_UNPACKED_BYTES >> 30} GiB, more "
+                        "than any radar sweep file; refused"
+                    )
+                dst.write(piece)
+        yield out
+
+
+def open_radar_file(path: str | Path) -> tuple[Any, str]:
+    """Open a radar file with the xradar backend its format needs: (DataTree, format).
+
+    Raises ``ValueError`` naming the file and each format tried when none reads it.
+    """
+    import xarray as xr
+
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"radar file not found (no such file): {path}")
+    if path.is_dir():
+        try:
+            return xr.open_datatree(path, engine="zarr"), "CfRadial 2 (Zarr)"
+        except Exception as exc:
+            raise ValueError(f"{path}: a folder, but not a CfRadial 2 Zarr store ({exc})") from None
+    tried: list[str] = []
+    with _unwrapped(path) as plain:
+        with plain.open("rb") as f:
+            head = f.read(64)
+        backends = _backends()
+        for label in candidate_formats(head, plain):
+            opener = backends.get(label)
+            if opener is None:
+                continue
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    tree = opener(str(plain))
+                    if not any(str(c).startswith("sweep_") for c in tree.children):
+                        raise ValueError("no sweep in it")
+                    tree = tree.load()  # read now: a temporary copy goes away
+                return tree, label
+            except Exception as exc:
+                first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+                tried.append(f"{label}: {first[:100]}")
+    raise ValueError(
+        f"{path}: no radar-file reader opens it (tried NEXRAD Level-II by its header, then "
+        + "; ".join(tried or ["no candidate format"])
+        + ")"
+    )
+
+
+def field_map(names: list[str], standard_names: dict[str, str]) -> dict[str, str]:
+    """moment -> the file's variable holding it, by alias (any case), then standard name."""
+    lower = {n.lower(): n for n in names}
+    out: dict[str, str] = {}
+    for moment in FIELD_NAMES:
+        for alias in ALIASES[moment]:
+            if alias.lower() in lower:
+                out[moment] = lower[alias.lower()]
+                break
+        else:
+            for name, standard in standard_names.items():
+                if standard in STANDARD_NAMES[moment] and name not in out.values():
+                    out[moment] = name
+                    break
+    return out
+
+
+def read_radar_sweep(
+    path: str | Path,
+    elevation_deg: float = 0.5,
+    sector_deg: tuple[float, float] | None = None,
+    margin_deg: float = 0.0,
+) -> TruthSweep:
+    """The sweep of a radar file nearest ``elevation_deg``, as a truth sweep.
+
+    Parameters and result as :func:`pasim_blocks.truth.nexrad_io.read_truth_sweep`.
+    """
+    path = Path(path)
+    sector, margin = check_sector(sector_deg, margin_deg)
+    tree, kind = open_radar_file(path)
+    sweeps = sorted((str(c) for c in tree.children if str(c).startswith("sweep_")), key=_number)
+    described = []
+    for name in sweeps:
+        ds = tree[name].to_dataset()
+        mode = str(np.asarray(ds["sweep_mode"]).item()) if "sweep_mode" in ds else ""
+        angle = float(np.asarray(ds["sweep_fixed_angle"]).ravel()[0])
+        described.append((name, angle, mode))
+    ppi = [d for d in described if "rhi" not in d[2].lower()]
+    if not ppi:
+        raise ValueError(
+            f"{path} ({kind}) holds only RHI sweeps (azimuths "
+            + ", ".join(f"{a:g}" for _, a, _ in described)
+            + " deg); the truth block reads PPI sweeps by elevation"
+        )
+    distance = [abs(a - elevation_deg) for _, a, _ in ppi]
+    best = ppi[int(np.argmin(distance))]
+    if min(distance) > _MAX_ELEVATION_MISMATCH_DEG:
+        angles = ", ".join(f"{a:.2f}" for _, a, _ in ppi)
+        raise ValueError(
+            f"{path}: no sweep within {_MAX_ELEVATION_MISMATCH_DEG} deg of elevation "
+            f"{elevation_deg} deg; available fixed angles (deg): {angles}"
+        )
+    ds = tree[best[0]].to_dataset()
+    names = [str(n) for n in ds.data_vars if ds[n].dims == ("azimuth", "range")]
+    standard = {n: str(ds[n].attrs.get("standard_name", "")) for n in names}
+    mapping = field_map(names, standard)
+    if "DBZH" not in mapping:
+        raise ValueError(
+            f"{path} ({kind}): the {best[1]:.2f} deg sweep has no reflectivity field "
+            f"(its fields: {', '.join(names) or 'none'})"
+        )
+    azimuth = wrap360(np.asarray(ds["azimuth"].values, np.float64))
+    range_m = np.asarray(ds["range"].values, np.float64)
+    width = nominal_spacing(azimuth)
+    keep = drop_duplicate_radials(azimuth, width)
+    order = keep[sector_order(azimuth[keep], sector, margin)]
+    fields = {
+        moment: np.asarray(ds[var].values, np.float32)[order] for moment, var in mapping.items()
+    }
+    root = tree.to_dataset()
+    site = {
+        "latitude": _scalar(root, "latitude", ds),
+        "longitude": _scalar(root, "longitude", ds),
+        "altitude": _scalar(root, "altitude", ds),
+        "instrument_name": str(tree.attrs.get("instrument_name", path.stem)).strip(),
+        "time_coverage_start": str(np.asarray(root["time_coverage_start"]).item())
+        if "time_coverage_start" in root
+        else "",
+    }
+    nyquist = float("nan")
+    if "nyquist_velocity" in ds:
+        values = np.asarray(ds["nyquist_velocity"].values, np.float64).ravel()
+        values = values[np.isfinite(values)]
+        nyquist = float(np.median(values)) if values.size else nyquist
+    return TruthSweep(
+        azimuth_deg=azimuth[order],
+        elevation_deg=float(np.nanmean(ds["elevation"].values))
+        if "elevation" in ds.coords
+        else best[1],
+        range_m=range_m,
+        radial_width_deg=float(width),
+        gate_width_m=gate_width(range_m),
+        fields=clean_fields(fields),
+        nyquist_velocity_ms=nyquist,
+        site=site,
+        source=path.name,
+    )
+
+
+def _number(name: str) -> int:
+    tail = name.rsplit("_", 1)[-1]
+    return int(tail) if tail.isdigit() else 0
+
+
+def _scalar(root: Any, name: str, sweep: Any) -> float:
+    for ds in (root, sweep):
+        if name in ds.variables:
+            value = np.asarray(ds[name].values, np.float64).ravel()
+            if value.size and np.isfinite(value[0]):
+                return float(value[0])
+    return 0.0
+
+
+def is_level2(path: str | Path) -> bool:
+    """True when the file is a NEXRAD Level-II volume (possibly gzip- or bzip2-wrapped)."""
+    import bz2
+
+    path = Path(path)
+    if not path.is_file():
+        return False
+    with path.open("rb") as f:
+        head = f.read(32)
+    with contextlib.suppress(OSError, EOFError, ValueError):
+        if head[:2] == b"\x1f\x8b":
+            with gzip.open(path, "rb") as g:
+                head = g.read(32)
+        elif head[:3] == b"BZh":
+            with bz2.open(path, "rb") as b:
+                head = b.read(32)
+    return head.startswith((b"AR2V", b"ARCHIVE2"))
+
+
+__all__ = ["ALIASES", "is_level2", "open_radar_file", "read_radar_sweep"]
