@@ -720,11 +720,12 @@ def _show_warning(
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:
-    """``--sector -10:10`` as ``--sector=-10:10``: argparse would take the value for an option."""
+    """``--sector -10:10`` as ``--sector=-10:10`` (and ``--steer -20,10``): argparse would
+    take a value that starts with a minus sign for an option."""
     out: list[str] = []
     for i, arg in enumerate(argv):
-        if out and out[-1] == "--sector" and arg.startswith("-") and i > 0:
-            out[-1] = f"--sector={arg}"
+        if out and out[-1] in ("--sector", "--steer") and arg.startswith("-") and i > 0:
+            out[-1] = f"{out[-1]}={arg}"
             continue
         out.append(arg)
     return out

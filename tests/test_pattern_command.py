@@ -130,3 +130,14 @@ def test_user_errors(args, message) -> None:
     res = run_cli("pattern", str(GRAPHS / "planar_patch_radar.yaml"), *args)
     assert res.returncode == 2
     assert message in res.stderr and "Traceback" not in res.stderr
+
+
+def test_negative_steering_angles_are_taken_as_written(capsys):
+    """``--steer -20,10`` is an angle, not an option (argparse refused it before)."""
+    from pasim_graph.cli import main
+
+    assert main(["pattern", str(GRAPHS / "atd_radar.yaml"), "--steer", "-20,10", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["steer_deg"] == [-20.0, 10.0]
+    assert main(["pattern", str(GRAPHS / "atd_radar.yaml"), "--steer=-20,10", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out) == out
