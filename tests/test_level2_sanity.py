@@ -117,9 +117,9 @@ def test_impossible_values_are_refused_naming_the_record(tmp_path, capsys, fault
 
 
 def test_a_gzip_bomb_is_refused_at_the_bound(tmp_path, capsys, monkeypatch):
-    import pasim_blocks.truth.level2 as level2
+    import pasim_blocks.truth.level2_file as level2_file
 
-    monkeypatch.setattr(level2, "MAX_DECOMPRESSED_BYTES", 8 << 20)
+    monkeypatch.setattr(level2_file, "MAX_DECOMPRESSED_BYTES", 8 << 20)
     path = tmp_path / "bomb_V06.gz"
     with gzip.open(path, "wb", compresslevel=9) as f:
         f.write(b"AR2V0006." + bytes(15))
@@ -131,7 +131,13 @@ def test_a_gzip_bomb_is_refused_at_the_bound(tmp_path, capsys, monkeypatch):
 
 
 def test_a_file_that_is_not_level_2_is_refused_from_its_header(tmp_path, capsys):
+    """The Level-II reader refuses from the first bytes; the truth block then tries the
+    other formats' readers, and names each when none opens it."""
+    from pasim_blocks.truth.nexrad_io import read_truth_sweep
+
     path = tmp_path / "image.h5"
     path.write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(100_000))
+    with pytest.raises(ValueError, match=r"is not a NEXRAD Level-II.*b'\\x89HDF"):
+        read_truth_sweep(path)
     code, err = pasim(capsys, *RUN, "--truth", str(path), "--out", str(tmp_path / "s"))
-    assert code == 2 and "is not a NEXRAD Level-II" in err and "b'\\x89HDF" in err, err
+    assert code == 2 and "no radar-file reader opens it" in err and "ODIM_H5" in err, err

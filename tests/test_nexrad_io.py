@@ -27,12 +27,12 @@ from pasim_blocks.truth.level2 import (
     CutData,
     Moment,
     _Cut,
-    _load_volume_bytes,
     _read_moments,
     choose_cuts,
     scan_volume,
     time_order,
 )
+from pasim_blocks.truth.level2_file import load_volume_bytes
 from pasim_blocks.truth.nexrad_io import TruthSweep, read_truth_sweep
 
 _SHARED_FILE = Path(__file__).parents[1].parent / "shared" / "data" / "KLBB20160601_150025_V06"
@@ -283,14 +283,14 @@ def test_non_split_cut_is_used_alone(truth_file: Path) -> None:
 def test_gzip_wrapped_and_uncompressed_volumes_read_the_same(
     truth_file: Path, tmp_path: Path
 ) -> None:
-    plain = _load_volume_bytes(truth_file)
+    plain = load_volume_bytes(truth_file)
     assert plain[:4] == b"AR2V" and len(plain) > 5 * truth_file.stat().st_size
     wrapped = tmp_path / (truth_file.name + ".gz")
     wrapped.write_bytes(gzip.compress(truth_file.read_bytes(), compresslevel=1))
-    assert _load_volume_bytes(wrapped) == plain
+    assert load_volume_bytes(wrapped) == plain
     uncompressed = tmp_path / (truth_file.name + ".raw")
     uncompressed.write_bytes(plain)
-    assert _load_volume_bytes(uncompressed) == plain
+    assert load_volume_bytes(uncompressed) == plain
     reference = _fields_digest(read_truth_sweep(truth_file, 0.5, (240.0, 250.0)))
     for variant in (wrapped, uncompressed):
         assert _fields_digest(read_truth_sweep(variant, 0.5, (240.0, 250.0))) == reference
@@ -381,14 +381,14 @@ def test_codes_and_geometry_match_xradar(truth_file: Path) -> None:
 
 def _count_records(monkeypatch: pytest.MonkeyPatch) -> list[int]:
     taken: list[int] = []
-    records = level2._records
+    records = level2.records
 
     def counting(raw, path, cut=None):
         for record in records(raw, path, cut):
             taken.append(len(record))
             yield record
 
-    monkeypatch.setattr(level2, "_records", counting)
+    monkeypatch.setattr(level2, "records", counting)
     return taken
 
 

@@ -8,17 +8,24 @@ moments on one grid.
 
 from __future__ import annotations
 
-import bz2
 import math
 import struct
-import zlib
 from collections import Counter
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from .level2_file import (
+    MSG_HEADER,
+    VOLUME_HEADER,
+    Truncation,
+    messages,
+    open_volume,
+    records,
+)
 
 #: Every moment a truth sweep can carry, in xradar (ODIM-like) names.
 FIELD_NAMES: tuple[str, ...] = ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH")
@@ -51,18 +58,6 @@ _SAME_ELEVATION_DEG = 0.1
 
 
 # ------------------------------------------------------------------ Level-II layout
-# Level-II archives start with "AR2V00nn." (build 10+) or "ARCHIVE2." (older builds).
-_VOLUME_MAGIC = (b"AR2V", b"ARCHIVE2")
-_VOLUME_HEADER = struct.Struct(">9s3sII4s")  # tape, extension, date, time, ICAO
-_VOLUME_HEADER_BYTES = 24
-# Each message is preceded by 12 bytes of channel terminal manager (CTM) data.
-_CTM_BYTES = 12
-# Every message but 31 fills one fixed frame; so does each of the metadata messages
-# (15, 13, 18, 3, 5, 2) that open a volume.
-_FRAME_BYTES = 2432
-_METADATA_FRAMES = 134
-# size (halfwords, header included), channels, type, sequence, date, ms, segments, segment
-_MSG_HEADER = struct.Struct(">HBBHHIHH")
 # id, collect ms, collect date, azimuth number, azimuth (deg), compression, spare, radial
 # length, azimuth resolution, radial status, elevation number, cut sector, elevation (deg),
 # blanking, azimuth mode, block count; then up to 10 block pointers.
@@ -187,6 +182,10 @@ class CutData:
 
 
 # ------------------------------------------------------------------------- file access
+#: What a radial's moment may span: NEXRAD gates reach 460 km (1840 gates of 250 m); these
+#: bounds leave room for other Level-II writers and refuse what no radar records.
+_MAX_GATES = 4000
+_MAX_RANGE_M = 1_000_000.0
 
 
 @dataclass(frozen=True)
@@ -197,168 +196,9 @@ class _Volume:
     icao: str
 
 
-#: Level-II volumes are a few to a hundred megabytes; a file far larger is not one, and is
-#: refused before it is read into memory.
-MAX_VOLUME_BYTES = 1 << 30
-#: No volume decompresses beyond this (a record of a real one is about a megabyte): a bound
-#: on what a damaged or hostile file can make the reader allocate.
-MAX_DECOMPRESSED_BYTES = 2 << 30
-_MAX_RECORD_BYTES = 64 << 20
-#: What a radial's moment may span: NEXRAD gates reach 460 km (1840 gates of 250 m); these
-#: bounds leave room for other Level-II writers and refuse what no radar records.
-_MAX_GATES = 4000
-_MAX_RANGE_M = 1_000_000.0
-
-
-def _open_volume(path: Path) -> bytes:
-    """Return the file's bytes with any whole-file gzip/bzip2 wrapper removed, validated.
-
-    The first bytes are checked before the file is read: a file that is neither a Level-II
-    volume nor a gzip or bzip2 wrapper is refused without reading the rest, and so is one
-    larger than any volume.
-    """
-    if not path.is_file():
-        raise FileNotFoundError(f"NEXRAD Level-II file not found (no such file): {path}")
-    with path.open("rb") as f:
-        head = f.read(_VOLUME_HEADER_BYTES)
-        wrapped = head[:2] == b"\x1f\x8b" or head[:3] == b"BZh"
-        if not wrapped and not head.startswith(_VOLUME_MAGIC):
-            raise ValueError(
-                f"{path} is not a NEXRAD Level-II (Archive II) volume: expected a 24-byte volume "
-                f"header starting with 'AR2V' or 'ARCHIVE2', found {head[:8]!r}"
-            )
-        size = path.stat().st_size
-        if size > MAX_VOLUME_BYTES:
-            raise ValueError(
-                f"{path} is {size / 2**30:.1f} GiB: larger than any Level-II volume "
-                f"({MAX_VOLUME_BYTES / 2**30:.0f} GiB at most); is it the right file?"
-            )
-        raw = head + f.read()
-    try:
-        # Archive copies are often wrapped whole in gzip (.gz) or bzip2 (.bz2).
-        if raw[:2] == b"\x1f\x8b":
-            raw = _bounded(zlib.decompressobj(wbits=31), raw, path, MAX_DECOMPRESSED_BYTES)
-        elif raw[:3] == b"BZh":
-            raw = _bounded(bz2.BZ2Decompressor(), raw, path, MAX_DECOMPRESSED_BYTES)
-    except (OSError, EOFError, zlib.error) as err:
-        raise ValueError(f"{path}: corrupt gzip/bzip2 wrapper ({err})") from err
-    if not raw.startswith(_VOLUME_MAGIC) or len(raw) < _VOLUME_HEADER_BYTES:
-        raise ValueError(
-            f"{path} is not a NEXRAD Level-II (Archive II) volume: expected a 24-byte volume "
-            f"header starting with 'AR2V' or 'ARCHIVE2', found {raw[:8]!r}"
-        )
-    return raw
-
-
-def _bounded(
-    decompressor: Any, data: bytes | memoryview, path: Path, limit: int, whole: bool = True
-) -> bytes:
-    """Decompress ``data`` (one stream), refusing output beyond ``limit`` bytes.
-
-    With ``whole`` the stream must end inside ``data`` (a whole-file wrapper cut short is
-    an error); without, what a cut-short record holds is returned.
-    """
-    if isinstance(decompressor, bz2.BZ2Decompressor):
-        out = decompressor.decompress(data, max_length=limit + 1)
-    else:
-        out = decompressor.decompress(data, limit + 1)
-    if len(out) > limit:
-        raise ValueError(
-            f"{path}: decompresses to more than {limit / 2**20:.0f} MiB, more than any Level-II "
-            "volume holds: refused (a damaged or hostile file)"
-        )
-    if whole and not decompressor.eof:
-        raise EOFError("the compressed stream ends before its end marker (a truncated file)")
-    return out
-
-
-class _Truncation:
-    """Where a truncated file ends: set by :func:`_records` and :func:`_messages`."""
-
-    def __init__(self) -> None:
-        self.at_byte: int | None = None
-
-
-def _records(raw: bytes, path: Path, cut: _Truncation | None = None) -> Iterator[bytes]:
-    """The volume's messages as decompressed records, one at a time, in file order.
-
-    A compressed volume is a sequence of records, each a 4-byte big-endian length (negative
-    for the last one) followed by one bzip2 stream; a plain volume is one record. Records
-    are decompressed only when asked for, so a reader that stops early saves the rest.
-    A record that runs past the end of the file (a cut-off download) is noted in ``cut``.
-    """
-    first = _VOLUME_HEADER_BYTES
-    if raw[first + 4 : first + 7] != b"BZh":
-        yield raw[first:]
-        return
-    view = memoryview(raw)
-    pos = first
-    while pos + 4 <= len(raw):
-        size = abs(int.from_bytes(raw[pos : pos + 4], "big", signed=True))
-        if size == 0:
-            break
-        if cut is not None and pos + 4 + size > len(raw):
-            cut.at_byte = len(raw)
-        try:
-            # A decompressor object returns what it can of a record cut short by a
-            # truncated download; the sweep being read then ends incomplete.
-            yield _bounded(
-                bz2.BZ2Decompressor(),
-                view[pos + 4 : pos + 4 + size],
-                path,
-                _MAX_RECORD_BYTES,
-                whole=False,
-            )
-        except OSError as err:
-            raise ValueError(f"{path}: corrupt bzip2 record at byte {pos} ({err})") from err
-        pos += 4 + size
-    if cut is not None and 0 < len(raw) - pos < 4:
-        cut.at_byte = len(raw)
-
-
-def _load_volume_bytes(path: Path) -> bytes:
-    """The whole volume as uncompressed Level-II bytes (volume header + plain records)."""
-    raw = _open_volume(path)
-    volume = bytearray(raw[:_VOLUME_HEADER_BYTES] + b"".join(_records(raw, path)))
-    # Readers tell compressed from plain volumes by bytes 24..27; in plain records those are
-    # the first message's CTM bytes, which Archive II leaves unused, so zeroing them is safe.
-    volume[_VOLUME_HEADER_BYTES : _VOLUME_HEADER_BYTES + _CTM_BYTES] = bytes(_CTM_BYTES)
-    return bytes(volume)
-
-
-def _messages(
-    records: Iterator[bytes], cut: _Truncation | None = None
-) -> Iterator[tuple[bytes, int, int]]:
-    """``(record, offset of the message header, message type)`` of every whole message.
-
-    A message cut short (the file ends inside it) is noted in ``cut``.
-    """
-    count = 0
-    for record in records:
-        pos, end = 0, len(record)
-        while pos + _CTM_BYTES + _MSG_HEADER.size <= end:
-            at = pos + _CTM_BYTES
-            size, _, msg_type = _MSG_HEADER.unpack_from(record, at)[:3]
-            length = _FRAME_BYTES
-            if count >= _METADATA_FRAMES or msg_type == 31:
-                # Message 31 has its own length; others fill at least a frame.
-                variable = _CTM_BYTES + 2 * size
-                length = variable if msg_type == 31 else max(variable, _FRAME_BYTES)
-                if length <= _CTM_BYTES + _MSG_HEADER.size:
-                    length = _FRAME_BYTES  # a zero-size message 31 is padding
-            if pos + length > end:
-                if cut is not None and cut.at_byte is None:
-                    cut.at_byte = -1  # somewhere in the last record
-                break  # cut short: a truncated record
-            count += 1
-            if msg_type != 0:  # type 0 frames are padding
-                yield record, at, msg_type
-            pos += length
-
-
 def _radial(record: bytes, at: int, msg_type: int) -> _Radial:
     """Unpack the header of one radial message (type 1 or 31)."""
-    body = at + _MSG_HEADER.size
+    body = at + MSG_HEADER.size
     if msg_type == 31:
         h = _MSG31.unpack_from(record, body)
         ms, date, azimuth, status, number, elevation = h[1], h[2], h[4], h[9], h[10], h[12]
@@ -386,7 +226,7 @@ def _radial(record: bytes, at: int, msg_type: int) -> _Radial:
 
 def _vcp_angles(record: bytes, at: int) -> list[float]:
     """Fixed angles (deg) of the cuts in a message 5, in elevation-number order."""
-    body = at + _MSG_HEADER.size
+    body = at + MSG_HEADER.size
     try:
         count = _MSG5.unpack_from(record, body)[3]
         if not 0 < count <= _MAX_VCP_CUTS:
@@ -419,15 +259,15 @@ def scan_volume(path: Path, elevation_deg: float) -> _Volume:
     scan stops at the first radial of the cut after the first run of them, without
     decompressing the rest of the file; otherwise every cut's headers are read.
     """
-    raw = _open_volume(path)
-    icao = _VOLUME_HEADER.unpack_from(raw)[4].decode("ascii", "replace").strip("\x00 ")
+    raw = open_volume(path)
+    icao = VOLUME_HEADER.unpack_from(raw)[4].decode("ascii", "replace").strip("\x00 ")
     vcp: list[float] = []
     wanted: frozenset[int] | None = None
     groups: list[tuple[list[_Radial], bool]] = []  # radials of each cut, and complete
     current: list[_Radial] | None = None
-    truncated = _Truncation()
+    truncated = Truncation()
     try:
-        for record, at, msg_type in _messages(_records(raw, path, truncated), truncated):
+        for record, at, msg_type in messages(records(raw, path, truncated), truncated):
             if msg_type == 5 and not vcp and not groups and current is None:
                 vcp = _vcp_angles(record, at)
                 wanted = _wanted_elevation_numbers(vcp, elevation_deg)
@@ -499,7 +339,7 @@ def scan_volume(path: Path, elevation_deg: float) -> _Volume:
 
 def _blocks(r: _Radial) -> dict[str, _Block]:
     """The moment data blocks of one radial, by field name."""
-    body = r.at + _MSG_HEADER.size
+    body = r.at + MSG_HEADER.size
     if r.legacy:
         h = _MSG1.unpack_from(r.record, body)
         sur_first, dop_first, sur_step, dop_step, sur_n, dop_n = h[8:14]
@@ -565,7 +405,7 @@ def _checked(r: _Radial, name: str, block: _Block) -> _Block:
 
 def _block_pointers(r: _Radial) -> tuple[int, ...]:
     """The non-zero data block pointers of a message 31 (offsets from its body)."""
-    body = r.at + _MSG_HEADER.size
+    body = r.at + MSG_HEADER.size
     count = min(_MSG31.unpack_from(r.record, body)[-1], _MAX_BLOCKS)
     pointers = struct.unpack_from(f">{count}I", r.record, body + _MSG31.size)
     return tuple(p for p in pointers if p > 0)
@@ -575,7 +415,7 @@ def _constant_block(r: _Radial, kind: bytes, layout: struct.Struct) -> tuple | N
     """Unpack a message 31 constant block ("RVOL", "RRAD") of a radial, if it has one."""
     if r.legacy:
         return None
-    body = r.at + _MSG_HEADER.size
+    body = r.at + MSG_HEADER.size
     for ptr in _block_pointers(r):
         if r.record[body + ptr : body + ptr + 4] == kind:
             return layout.unpack_from(r.record, body + ptr)
@@ -608,12 +448,12 @@ def _describe_cut(
             f"{len(sample)} radials sampled across the cut carry {', '.join(sorted(moments))}"
         )
     if first.legacy:
-        nyquist_raw = _MSG1.unpack_from(first.record, first.at + _MSG_HEADER.size)[-1]
+        nyquist_raw = _MSG1.unpack_from(first.record, first.at + MSG_HEADER.size)[-1]
         radial_width = 1.0  # message 1 predates super-resolution
     else:
         rad = _constant_block(first, b"RRAD", _RADIAL_BLOCK)
         nyquist_raw = rad[-1] if rad else 0
-        resolution = _MSG31.unpack_from(first.record, first.at + _MSG_HEADER.size)[8]
+        resolution = _MSG31.unpack_from(first.record, first.at + MSG_HEADER.size)[8]
         radial_width = {1: 0.5, 2: 1.0}.get(int(resolution), np.nan)
     # Both messages store the Nyquist velocity in 0.01 m/s; 0 means not recorded.
     nyquist = nyquist_raw / 100.0 if nyquist_raw else np.nan

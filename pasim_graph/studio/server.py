@@ -499,19 +499,19 @@ def serve(
         )
         return 2
     where = "kept" if runs_dir else "deleted when the studio stops; keep them with --runs DIR"
-    print(f"PASIM-graph studio serving the graphs in {server.folder.root}", flush=True)
-    print(f"runs are written to {server.runs.dir} ({where})", flush=True)
-    print(
-        f"open this address in a browser (Ctrl-C stops the studio):\n\n    {server.url}\n",
-        flush=True,
-    )
-    if open_browser:
-        import webbrowser
-
-        webbrowser.open(server.url)
-
     try:
+        # Signals are taken before the address is printed: whoever reads it may stop us.
         with stop_on_signals():
+            print(f"PASIM-graph studio serving the graphs in {server.folder.root}", flush=True)
+            print(f"runs are written to {server.runs.dir} ({where})", flush=True)
+            print(
+                f"open this address in a browser (Ctrl-C stops the studio):\n\n    {server.url}\n",
+                flush=True,
+            )
+            if open_browser:
+                import webbrowser
+
+                webbrowser.open(server.url)
             server.serve_forever()
     except Stopped as exc:
         # Runs in progress are cancelled and their stores removed with the studio's folder
