@@ -124,6 +124,8 @@ _BOOL = re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$")
 _Loader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456789."))
 _Loader.add_implicit_resolver("tag:yaml.org,2002:int", _INT, list("-+0123456789"))
 _Loader.add_implicit_resolver("tag:yaml.org,2002:bool", _BOOL, list("tTfF"))
+#: The YAML 1.2 scalar rules, public for the project's other YAML formats (study files).
+Loader = _Loader
 
 
 def _construct_int(loader: yaml.SafeLoader, node: yaml.Node) -> int:
@@ -279,7 +281,18 @@ def parse(text: str, file: str = "<graph>") -> GraphSpec:
     return spec
 
 
-def _refuse_structure(spec: GraphSpec, text: str) -> bool:
+def structure_problems(text: str, file: str, kind: str = "graph file") -> list[Problem]:
+    """Anchors, aliases and nesting deeper than :data:`MAX_DEPTH` in a YAML text, as problems.
+
+    Public for other YAML formats of the project (study files), so that they refuse the same
+    structures as graph files, named for their own ``kind``.
+    """
+    spec = GraphSpec(file=file)
+    _refuse_structure(spec, text, kind)
+    return spec.problems
+
+
+def _refuse_structure(spec: GraphSpec, text: str, kind: str = "graph file") -> bool:
     """Refuse anchors and aliases (a graph file needs none, and nested aliases expand
     exponentially: the "billion laughs") and nesting deeper than :data:`MAX_DEPTH`, from the
     event stream, before any node is built."""
@@ -288,14 +301,12 @@ def _refuse_structure(spec: GraphSpec, text: str) -> bool:
         for event in yaml.parse(text, Loader=_Loader):
             line = event.start_mark.line + 1 if event.start_mark else 0
             if isinstance(event, yaml.AliasEvent) or getattr(event, "anchor", None):
-                spec.problem(
-                    line, "anchors and aliases (&name, *name) are not allowed in graph files"
-                )
+                spec.problem(line, f"anchors and aliases (&name, *name) are not allowed in {kind}s")
                 return True
             if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
                 depth += 1
                 if depth > MAX_DEPTH:
-                    spec.problem(line, f"nested deeper than {MAX_DEPTH} levels: not a graph file")
+                    spec.problem(line, f"nested deeper than {MAX_DEPTH} levels: not a {kind}")
                     return True
             elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
                 depth -= 1

@@ -1,0 +1,130 @@
+"""``pasim study STUDY.yaml --out DIR``: every system x case x seed x sweep point, scored.
+
+The study file is checked whole before any run (every problem named, exit 2); the runs go
+into ``DIR/runs`` through the engine's executor, in this one process; ``scores.json`` and
+``scores.csv`` are rewritten as runs finish. ``--resume`` completes a stopped study: finished
+runs are kept, never recomputed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+
+def _problems_class() -> type:
+    from pasim_graph.graph import GraphError
+
+    class StudyProblems(GraphError):
+        """Every problem of a study file, reported together (exit 2)."""
+
+        def report(self) -> str:
+            n = len(self.problems)
+            head = f"{n} problem{'s' if n != 1 else ''} in the study:"
+            return "\n".join([head, *(f"  {p}" for p in self.problems)])
+
+    return StudyProblems
+
+
+class StudyCommand:
+    help = "run a trade study (systems x cases x seeds x sweeps) and score it with a budget"
+
+    def configure(self, parser: argparse.ArgumentParser) -> None:
+        parser.add_argument("study", metavar="STUDY.yaml")
+        parser.add_argument("--out", metavar="DIR", help="the study's folder (required to run)")
+        parser.add_argument("--resume", action="store_true", help="complete a stopped study in DIR")
+        where = parser.add_mutually_exclusive_group()
+        where.add_argument("--workers", type=int, metavar="N", help="local worker processes")
+        where.add_argument("--scheduler", metavar="ADDR", help="a dask.distributed scheduler")
+        parser.add_argument("--progress", action="store_true", help="show each run's progress")
+        parser.add_argument(
+            "--check", action="store_true", help="validate the study and list its runs; run none"
+        )
+
+    def run(self, args: argparse.Namespace) -> int:
+        from pasim_graph.cli import UserError
+        from pasim_graph.dask_executor import (
+            ResourceError,
+            ResumeError,
+            SchedulerError,
+            check_scheduler,
+        )
+        from pasim_graph.executor import BlockError
+
+        StudyProblems = _problems_class()
+        from pasim_graph.interrupt import StopMessage, Stopped, stop_on_signals
+        from pasim_graph.store import StoreError, StoreExistsError
+
+        from ..study.model import read_study
+        from ..study.plan import plan_runs
+        from ..study.runner import StudyError, execute, take_folder
+        from ..study.scores import score_study, write_scores
+
+        study = read_study(args.study)
+        problems = list(study.problems)
+        runs: list = []
+        if study.systems and study.cases:
+            # The runs are planned even on a flawed file: every problem is named at once.
+            runs, more = plan_runs(study)
+            problems += more
+        if problems:
+            raise StudyProblems(problems)
+        if args.check:
+            print(f"{args.study}: valid, {len(runs)} runs")
+            for r in runs:
+                print(f"  {r.key}")
+            return 0
+        if not args.out:
+            raise UserError("--out DIR is needed to run the study (or --check to validate it)")
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None
+        if args.workers is not None and (args.workers < 1 or (cores and args.workers > cores)):
+            raise UserError(f"--workers {args.workers}: give 1 to {cores or 'the cores'}")
+        if args.scheduler:
+            try:
+                check_scheduler(args.scheduler)
+            except SchedulerError as exc:
+                raise UserError(str(exc)) from None
+        out = Path(args.out)
+        try:
+            state = take_folder(out, study, args.resume)
+        except StudyError as exc:
+            raise UserError(str(exc)) from None
+
+        def rescore() -> None:
+            write_scores(out, score_study(study, runs, out, state["beamwidths"]))
+
+        print(f"study {args.study}: {len(runs)} runs into {out}", file=sys.stderr)
+        try:
+            with stop_on_signals():
+                report = execute(
+                    study,
+                    runs,
+                    out,
+                    state,
+                    workers=args.workers,
+                    scheduler=args.scheduler,
+                    progress=args.progress,
+                    after_run=rescore,
+                )
+        except Stopped as exc:
+            raise StopMessage(
+                f"stopped by {exc}: finished runs are kept in {out}; complete the study with "
+                "the same command and --resume",
+                exc.exit_code,
+            ) from None
+        except BlockError as exc:
+            raise UserError(f"{args.study}: {exc}") from None
+        except (StoreError, StoreExistsError, ResumeError, ResourceError, SchedulerError) as exc:
+            raise UserError(str(exc)) from None
+        rescore()
+        print(
+            f"wrote {out / 'scores.json'} and scores.csv: {report['computed']} runs computed, "
+            f"{report['kept']} kept, {report['seconds']:.1f} s",
+            file=sys.stderr,
+        )
+        return 0
+
+
+COMMAND = StudyCommand()

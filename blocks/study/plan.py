@@ -1,0 +1,281 @@
+"""Every run a study needs, each graph validated by the engine before any run starts.
+
+For every system, case and sweep point: one ``estimate`` run per seed (the system as built)
+and the three noise-free references the error budget needs, all with the weather channel's
+``method: expected`` (the beam- and range-smoothed truth, no noise):
+
+- ``expected`` (one per seed: an impaired array is drawn from the seed): the system itself;
+- ``sidelobe_free``: the antenna replaced by ``antenna.ideal``, a Gaussian main lobe of the
+  system's own 3-dB beamwidth (measured from its pattern at the sector's middle beam);
+- ``short_pulse``: that and every waveform replaced by a short rectangular pulse
+  (:data:`SHORT_PULSE_S`), so that the range response is close to an impulse.
+
+Reference runs score every gate with a truth (scorer and processor SNR thresholds at their
+floors), so that the estimate's scored gates all have a reference value.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from pasim_graph.graph import Graph, GraphError, validate
+from pasim_graph.graphfile import BlockSpec, GraphSpec, Problem, read
+
+from .model import Case, Study, System, point_name
+
+SHORT_PULSE_S = 2e-7  # 30 m of range resolution: far below the 250 m truth gates
+SHORT_PULSE_RATE_HZ = 5e7
+PLACEHOLDER_BEAMWIDTH_DEG = 1.0
+KINDS = ("estimate", "expected", "sidelobe_free", "short_pulse")
+
+
+@dataclass
+class Run:
+    system: str
+    case: str
+    point: dict[str, Any]
+    kind: str
+    seed: int
+    spec: GraphSpec
+    overrides: dict[str, Any]
+    antennas: list[str] = field(default_factory=list)  # ideal antennas to give a beamwidth
+    source_antenna: str = ""  # the system's antenna whose beamwidth they take
+
+    @property
+    def point_name(self) -> str:
+        return point_name(self.point)
+
+    @property
+    def key(self) -> str:
+        """The run's folder under the study's ``runs/``."""
+        seed = f"seed{self.seed}" if self.kind in ("estimate", "expected") else "ref"
+        return f"{self.system}/{self.case}/{self.point_name}/{self.kind}-{seed}.zarr"
+
+    def graph(self, beamwidth_deg: float | None = None) -> Graph:
+        overrides = dict(self.overrides)
+        bw = beamwidth_deg or PLACEHOLDER_BEAMWIDTH_DEG
+        for name in self.antennas:
+            overrides[f"{name}.beamwidth_deg"] = bw
+            # The Gaussian is cut at support_deg: 2.5 beamwidths is -75 dB one-way.
+            overrides[f"{name}.support_deg"] = min(45.0, max(2.0, 2.5 * bw))
+        return validate(self.spec, overrides)
+
+
+def _with_params(graph: Graph, test: Any, value: Any) -> dict[str, Any]:
+    return {
+        f"{name}.{p}": value for name, cls in graph.classes.items() for p in cls.params if test(p)
+    }
+
+
+def case_overrides(graph: Graph, case: Case) -> tuple[dict[str, Any], list[str]]:
+    """The overrides that put a system's graph on a case, and what stops it."""
+    out: dict[str, Any] = {}
+    problems: list[str] = []
+    truth, scan = graph.by_role("truth"), graph.by_role("scan")
+    if len(scan) != 1:
+        return out, [f"needs exactly one scan block, found {len(scan)}"]
+    s = scan[0]
+    out |= {
+        f"{s}.azimuth_start_deg": case.sector[0],
+        f"{s}.azimuth_stop_deg": case.sector[1],
+        f"{s}.elevation_deg": case.elevation,
+    }
+    if len(truth) == 1:
+        t = truth[0]
+        params = graph.classes[t].params
+        if "path" in params:
+            out[f"{t}.path"] = case.truth
+        if "elevation_deg" in params:
+            out[f"{t}.elevation_deg"] = case.elevation
+        if "azimuth_start_deg" in params and "azimuth_stop_deg" in params:
+            out[f"{t}.azimuth_start_deg"] = case.sector[0]
+            out[f"{t}.azimuth_stop_deg"] = case.sector[1]
+    elif case.truth:
+        problems.append(f"has {len(truth)} truth blocks: cannot read the case's truth file")
+    return out, problems
+
+
+def _method_overrides(graph: Graph) -> dict[str, Any]:
+    out = {}
+    for name, cls in graph.classes.items():
+        q = cls.params.get("method")
+        if q is not None and q.choices and "expected" in q.choices:
+            out[f"{name}.method"] = "expected"
+    return out
+
+
+def _floors(graph: Graph) -> dict[str, Any]:
+    def floor(p: str) -> bool:
+        return p == "min_snr_db" or (p.startswith("snr_threshold_") and p.endswith("_db"))
+
+    return _with_params(graph, floor, -100.0)
+
+
+def _kinds_of(graph: Graph, kind: str, side: str) -> list[str]:
+    return sorted(
+        n
+        for n, c in graph.classes.items()
+        if any(p.type.kind == kind for p in getattr(c, side).values())
+    )
+
+
+def _variant(spec: GraphSpec, graph: Graph, short: bool) -> tuple[GraphSpec, list[str], str]:
+    """The spec with the antenna made ideal (and the pulse short), the ideal antennas, and
+    the system antenna they stand for."""
+    spec = copy.deepcopy(spec)
+    antennas = _kinds_of(graph, "pattern", "outputs")
+    for name in antennas:
+        line = spec.blocks[name].line
+        spec.blocks[name] = BlockSpec("antenna.ideal", {}, line)
+    if short:
+        pulse_in = set(_kinds_of(graph, "pulse", "inputs"))
+        for name in _kinds_of(graph, "pulse", "outputs"):
+            if name in pulse_in:
+                continue  # an amplifier: kept, it passes the short pulse on
+            params = {"width_s": SHORT_PULSE_S, "sample_rate_hz": SHORT_PULSE_RATE_HZ}
+            spec.blocks[name] = BlockSpec("waveform.rectangular", params, spec.blocks[name].line)
+    return spec, antennas, antennas[0] if antennas else ""
+
+
+def plan_runs(study: Study) -> tuple[list[Run], list[Problem]]:
+    """Every run of ``study``, each graph validated; problems collected, never raised."""
+    runs: list[Run] = []
+    problems: list[Problem] = []
+    f = study.file
+    for system in study.systems:
+        spec = read(system.graph)
+        if spec.problems and not spec.blocks_read:
+            for p in spec.problems:
+                problems.append(
+                    Problem(f, system.line, "", f"system '{system.name}'", f"graph {p}")
+                )
+            continue
+        for case in study.cases:
+            for point in study.points(system.name):
+                runs += _system_runs(study, system, spec, case, point, problems)
+    problems += _truth_problems(study)
+    return runs, problems
+
+
+def _located(study: Study, system: System, point: dict[str, Any], p: Problem) -> Problem:
+    """An engine problem of a study's override, at the study line that set it."""
+    sweep = next((s for s in study.sweeps if system.name in s.systems), None)
+    for key in point:
+        b, _, param = key.partition(".")
+        if p.block == b and (f"'{param}'" in p.item or key in p.item):
+            line = sweep.value_lines.get(key, sweep.line) if sweep else system.line
+            return Problem(study.file, line, "", f"system '{system.name}', sweep {key}", str(p))
+    for key, line in system.override_lines.items():
+        b, _, param = key.partition(".")
+        if p.block == b and (f"'{param}'" in p.item or key in p.item):
+            return Problem(study.file, line, "", f"system '{system.name}', set {key}", str(p))
+    return Problem(study.file, system.line, "", f"system '{system.name}'", str(p))
+
+
+def _system_runs(
+    study: Study,
+    system: System,
+    spec: GraphSpec,
+    case: Case,
+    point: dict[str, Any],
+    problems: list[Problem],
+) -> list[Run]:
+    overrides = {**system.overrides, **point}
+    try:
+        graph = validate(spec, overrides)
+    except GraphError as exc:
+        problems += [_located(study, system, point, p) for p in exc.problems]
+        return []
+    on_case, trouble = case_overrides(graph, case)
+    where = f"system '{system.name}', case '{case.name}'"
+    problems += [Problem(study.file, case.line, "", where, t) for t in trouble]
+    overrides |= on_case
+    reference = overrides | _method_overrides(graph) | _floors(graph)
+    if not _method_overrides(graph):
+        problems.append(
+            Problem(study.file, system.line, "", where, "no weather block with method 'expected'")
+        )
+    runs = [Run(system.name, case.name, point, "estimate", s, spec, overrides) for s in study.seeds]
+    runs += [
+        Run(system.name, case.name, point, "expected", s, spec, reference) for s in study.seeds
+    ]
+    for kind, short in (("sidelobe_free", False), ("short_pulse", True)):
+        vspec, antennas, source = _variant(spec, graph, short)
+        if not antennas:
+            problems.append(Problem(study.file, system.line, "", where, "no antenna block"))
+            continue
+        # Overrides of the replaced blocks do not apply to their stand-ins.
+        replaced = set(antennas) | {n for n, b in vspec.blocks.items() if b != spec.blocks.get(n)}
+        kept = {k: v for k, v in reference.items() if k.partition(".")[0] not in replaced}
+        runs.append(
+            Run(system.name, case.name, point, kind, study.seeds[0], vspec, kept, antennas, source)
+        )
+    for run in runs:
+        try:
+            run.graph()
+        except GraphError as exc:
+            problems += [
+                Problem(study.file, case.line, "", f"{where}, {run.kind} run", str(p))
+                for p in exc.problems
+            ]
+    return runs
+
+
+def _truth_problems(study: Study) -> list[Problem]:
+    """A case's sector or elevation that its truth file does not cover."""
+    from .. import DEFAULT_SCENE
+    from ..truth.nexrad_io import read_truth_sweep
+
+    out = []
+    for case in study.cases:
+        path = case.truth or DEFAULT_SCENE
+        if case.truth and not Path(case.truth).is_file():
+            continue  # reported by the model
+        try:
+            sweep = read_truth_sweep(path, case.elevation)
+        except Exception as exc:  # a broken file: named, with its reason
+            out.append(Problem(study.file, case.line, "", f"case '{case.name}'", f"truth: {exc}"))
+            continue
+        where = f"case '{case.name}'"
+        if abs(sweep.elevation_deg - case.elevation) > 1.0:
+            out.append(
+                Problem(
+                    study.file,
+                    case.line,
+                    "",
+                    where,
+                    f"elevation {case.elevation:g} deg: the nearest cut of the truth is at "
+                    f"{sweep.elevation_deg:.2f} deg",
+                )
+            )
+        gap = _largest_gap(sweep.azimuth_deg, case.sector)
+        if gap > 3 * sweep.radial_width_deg:
+            out.append(
+                Problem(
+                    study.file,
+                    case.line,
+                    "",
+                    where,
+                    f"sector {case.sector[0]:g}:{case.sector[1]:g} lies outside the truth: "
+                    f"{gap:.1f} deg of it without a truth radial",
+                )
+            )
+    return out
+
+
+def _largest_gap(azimuth: Any, sector: tuple[float, float]) -> float:
+    """The longest stretch of ``sector`` (deg) without a radial of ``azimuth``."""
+    import numpy as np
+
+    start, stop = sector
+    span = (stop - start) % 360.0 or 360.0
+    rel = np.sort((np.asarray(azimuth) - start) % 360.0)
+    rel = rel[rel <= span]
+    if rel.size == 0:
+        return span
+    edges = np.concatenate([[0.0], rel, [span]])
+    return float(np.max(np.diff(edges))) if math.isfinite(span) else span

@@ -1,0 +1,205 @@
+"""Run a study's stores in one process, resumably, and keep its folder safe.
+
+``DIR/pasim-study.json`` marks a folder as a study's (written first, atomically, and kept
+up to date as runs finish): a folder without it that holds anything is never written into.
+Runs live in ``DIR/runs/SYSTEM/CASE/POINT/KIND-SEED.zarr``; a finished store is kept and
+never recomputed, an unfinished one is completed with the executor's own ``resume``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from .model import Study
+from .plan import Run
+
+MANIFEST = "pasim-study.json"
+
+
+class StudyError(Exception):
+    """A study that cannot go on (printed as one line, exit 2)."""
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "w") as f:
+        f.write(text)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def digest(study: Study) -> str:
+    return hashlib.sha256(study.text.encode()).hexdigest()[:16]
+
+
+def take_folder(out: Path, study: Study, resume: bool) -> dict[str, Any]:
+    """The study's manifest in ``out``, refusing a folder this program did not write."""
+    manifest = out / MANIFEST
+    if out.exists() and not out.is_dir():
+        raise StudyError(f"{out}: exists and is not a folder; choose another --out")
+    if manifest.is_file():
+        try:
+            state = json.loads(manifest.read_text())
+        except (OSError, ValueError) as exc:
+            raise StudyError(f"{manifest}: unreadable study manifest ({exc})") from None
+        if not resume:
+            raise StudyError(
+                f"{out} holds a study already: complete it with --resume, or choose another --out"
+            )
+        if state.get("study_digest") != digest(study):
+            raise StudyError(
+                f"{out}: the study file changed since this folder's study began "
+                f"({state.get('study_file')}); use another --out for the new study"
+            )
+        return dict(state)
+    if out.exists() and any(out.iterdir()):
+        raise StudyError(
+            f"{out} is not empty and holds no study ({MANIFEST} missing); it is left untouched: "
+            "choose another --out"
+        )
+    if not out.parent.is_dir():
+        raise StudyError(f"{out}: the folder {out.parent} does not exist")
+    out.mkdir(exist_ok=True)
+    state = {
+        "format": "pasim-study-manifest/1",
+        "study_file": study.file,
+        "study_digest": digest(study),
+        "study_text": study.text,
+        "runs": {},
+        "beamwidths": {},
+    }
+    _write_atomic(manifest, json.dumps(state, indent=1))
+    return state
+
+
+def save(out: Path, state: dict[str, Any]) -> None:
+    _write_atomic(out / MANIFEST, json.dumps(state, indent=1))
+
+
+def finished(path: Path) -> bool:
+    from pasim_graph.store import is_store, run_state
+
+    if not path.exists() or not is_store(path):
+        return False
+    state = run_state(path)
+    return state is not None and bool(state[1].all())
+
+
+def measure_beamwidth(run: Run, estimate: Run, sector: tuple[float, float], el: float) -> float:
+    """The one-way 3-dB beamwidth (geometric mean of azimuth and elevation) of the system's
+    antenna, its beam steered to the sector's middle."""
+    from ..commands.pattern import build, measure
+
+    graph = estimate.graph()
+    block = build(graph, run.source_antenna)
+    resource = block.load()
+    if hasattr(block, "prepare"):
+        block.prepare(resource)
+    span = (sector[1] - sector[0]) % 360.0 or 360.0
+    middle = (sector[0] + span / 2) % 360.0
+    az0, el0 = block.broadside()
+    steer = ((middle - az0 + 180.0) % 360.0 - 180.0, el - el0)
+    figures = measure(block, *steer, seed=run.seed, resource=resource, span_deg=20.0)
+    return float(math.sqrt(figures["beamwidth_az_deg"] * figures["beamwidth_el_deg"]))
+
+
+def execute(
+    study: Study,
+    runs: list[Run],
+    out: Path,
+    state: dict[str, Any],
+    *,
+    workers: int | None,
+    scheduler: str | None,
+    progress: bool,
+    after_run: Callable[[], None],
+    log: Callable[[str], None] = lambda s: print(s, file=sys.stderr),
+) -> dict[str, Any]:
+    """Run every store not yet finished; call ``after_run`` as each one finishes."""
+    from pasim_graph import __version__
+    from pasim_graph.dask_executor import DaskExecutor
+    from pasim_graph.executor import RunOptions
+
+    cluster = None
+    if workers:
+        import dask
+        from distributed import LocalCluster
+
+        with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+            cluster = LocalCluster(
+                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+            )
+        scheduler = cluster.scheduler_address
+    cases = {c.name: c for c in study.cases}
+    t_start = time.perf_counter()
+    computed = 0
+    todo = [r for r in runs if not finished(out / "runs" / r.key)]
+    kept = len(runs) - len(todo)
+    if kept:
+        log(f"keeping {kept} finished run(s) of {len(runs)}")
+    try:
+        for i, run in enumerate(todo, 1):
+            path = out / "runs" / run.key
+            path.parent.mkdir(parents=True, exist_ok=True)
+            bw = None
+            if run.antennas:
+                bkey = f"{run.system}/{run.case}/{run.point_name}"
+                bw = state["beamwidths"].get(bkey)
+                if bw is None:
+                    estimate = next(
+                        r
+                        for r in runs
+                        if (r.system, r.case, r.point_name, r.kind)
+                        == (run.system, run.case, run.point_name, "estimate")
+                    )
+                    case = cases[run.case]
+                    bw = measure_beamwidth(run, estimate, case.sector, case.elevation)
+                    state["beamwidths"][bkey] = bw
+            graph = run.graph(bw)
+            attrs = {
+                "title": "PASIM-graph simulated radar volume",
+                "Conventions": "Cf/Radial",
+                "version": "2.0",
+                "pasim_graph_version": __version__,
+                "graph": graph.text(),
+                "graph_file": str(study.system(run.system).graph),
+                "seed": run.seed,
+                "simulated": "true",
+                "source": "PASIM-graph simulation",
+                "study": study.file,
+                "study_system": run.system,
+                "study_case": run.case,
+                "study_point": run.point_name,
+                "study_run": run.kind,
+            }
+            t0 = time.perf_counter()
+            executor = DaskExecutor(
+                graph, RunOptions(seed=run.seed), scheduler=scheduler, progress=progress
+            )
+            executor.run(
+                path,
+                attrs,
+                resume=path.exists(),
+                command=f"pasim study {study.file}",
+            )
+            dt = time.perf_counter() - t0
+            computed += 1
+            state["runs"][run.key] = {"seconds": round(dt, 2), "kind": run.kind}
+            save(out, state)
+            elapsed = time.perf_counter() - t_start
+            left = elapsed / i * (len(todo) - i)
+            log(f"[{kept + i}/{len(runs)}] {run.key}: {dt:.1f} s; about {left:.0f} s left")
+            after_run()
+    finally:
+        if cluster is not None:
+            cluster.close()
+    return {"computed": computed, "kept": kept, "seconds": time.perf_counter() - t_start}

@@ -1,0 +1,192 @@
+"""``pasim study`` end to end on the tiny study (two pencil beams, 8 beams of the bundled scene,
+8 pulses), against independent computations from the stores it wrote, and against theory.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from pasim_blocks.study.scores import MAD_TO_STD, bootstrap, robust_std, wrap
+
+from pasim_graph.cli import main
+
+FIX = Path(__file__).parent / "fixtures" / "study"
+STUDY = FIX / "tiny_study.yaml"
+
+
+def _errors(path: Path, name: str) -> np.ndarray:
+    ds = xr.open_datatree(path, engine="zarr")["sweep_0"].to_dataset()
+    return np.asarray(ds[f"error_{name}"].values, dtype=np.float64), ds[f"error_{name}"].attrs
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("study") / "out"
+    assert main(["study", str(STUDY), "--out", str(out)]) == 0
+    return out
+
+
+def scores(out: Path) -> dict:
+    return json.loads((out / "scores.json").read_text())
+
+
+def test_the_measured_beamwidth_is_the_declared_one(study):
+    # antenna.pencil declares its 3-dB beamwidth: the pattern measured for the sidelobe-free
+    # stand-in must give it back (1 and 2 deg in the fixtures).
+    bw = scores(study)["_study"]["beamwidths_deg"]
+    assert bw["narrow/convective/-"] == pytest.approx(1.0, rel=0.02)
+    assert bw["wide/convective/-"] == pytest.approx(2.0, rel=0.02)
+
+
+@pytest.mark.parametrize("field", ["DBZH", "ZDR", "PHIDP", "VRADH"])
+def test_std_and_bias_match_an_independent_reduction(study, field):
+    s = scores(study)
+    for system in ("narrow", "wide"):
+        run = study / "runs" / system / "convective" / "-"
+        est, attrs = _errors(run / "estimate-seed0.zarr", field)
+        x = est[np.isfinite(est)]
+        got = s[system]["convective"]["-"][field]
+        assert got["count"] == x.size
+        assert got["std"] == pytest.approx(x.std(ddof=1), rel=1e-9)
+        assert got["bias"] == pytest.approx(x.mean(), abs=1e-9)
+        assert got["std_ci"][0] <= got["std"] <= got["std_ci"][1]
+        # Against the own expected level: a difference of two errors, on the circle.
+        own, _ = _errors(run / "expected-seed0.zarr", field)
+        d = est - own
+        if "period" in attrs:
+            p = float(attrs["period"])
+            d = (d + p / 2) % p - p / 2
+        d = d[np.isfinite(d)]
+        assert got["own_expected"]["std"] == pytest.approx(d.std(ddof=1), rel=1e-9)
+        assert got["own_expected"]["count"] == d.size
+
+
+def test_common_gates_are_the_gates_every_system_scored(study):
+    s = scores(study)
+    a, _ = _errors(study / "runs/narrow/convective/-/estimate-seed0.zarr", "DBZH")
+    b, _ = _errors(study / "runs/wide/convective/-/estimate-seed0.zarr", "DBZH")
+    both = np.isfinite(a) & np.isfinite(b)
+    for system, e in (("narrow", a), ("wide", b)):
+        c = s[system]["convective"]["-"]["DBZH"]["common"]
+        assert c["count"] == int(both.sum())
+        assert c["std"] == pytest.approx(e[both].std(ddof=1), rel=1e-9)
+
+
+def test_the_reference_of_the_reference_system_is_its_own_expected_level(study):
+    s = scores(study)["narrow"]["convective"]["-"]["DBZH"]
+    assert s["reference"]["std"] == pytest.approx(s["own_expected"]["std"])
+
+
+def test_the_budget_parts_telescope_to_the_total(study):
+    # est - raw = (est - own) + (own - free) + (free - short) + (short - raw) exactly; the
+    # variance adds only without cross terms: within 10 % or a note saying why.
+    s = scores(study)
+    for system in ("narrow", "wide"):
+        for field in ("DBZH", "ZDR", "RHOHV"):
+            b = s[system]["convective"]["-"][field]["budget"]
+            parts = [b[k] for k in ("estimator_noise", "sidelobes", "range", "main_lobe")]
+            assert b["quadrature_sum"] == pytest.approx(np.sqrt(np.sum(np.square(parts))))
+            assert b["adds_up"] == (abs(b["quadrature_sum"] - b["total"]) <= 0.1 * b["total"])
+            assert b["adds_up"] or "correlated" in b["note"]
+    # The sidelobe-free stand-in of a -32 dB pencil differs from it less than a -20 dB one.
+    narrow = s["narrow"]["convective"]["-"]["DBZH"]["budget"]
+    wide = s["wide"]["convective"]["-"]["DBZH"]["budget"]
+    assert narrow["sidelobes"] < wide["sidelobes"]
+    assert narrow["main_lobe"] < wide["main_lobe"]  # a 1 deg beam smooths less than 2 deg
+
+
+def test_the_csv_holds_the_json_numbers(study):
+    s = scores(study)
+    with open(study / "scores.csv") as f:
+        rows = list(csv.DictReader(f))
+    want = s["wide"]["convective"]["-"]["ZDR"]
+    for gates, against, q, v in (
+        ("own", "raw", "std", want["std"]),
+        ("common", "reference", "bias", want["common"]["reference"]["bias"]),
+        ("own", "budget", "main_lobe", want["budget"]["main_lobe"]),
+    ):
+        (row,) = [
+            r
+            for r in rows
+            if (r["system"], r["field"], r["gates"], r["against"], r["quantity"])
+            == ("wide", "ZDR", gates, against, q)
+        ]
+        assert float(row["value"]) == pytest.approx(v)
+
+
+def test_a_folder_it_did_not_write_is_left_untouched(tmp_path, capsys, study):
+    (tmp_path / "notes.txt").write_text("mine")
+    assert main(["study", str(STUDY), "--out", str(tmp_path)]) == 2
+    assert "left untouched" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+    # A finished study is not run over without --resume.
+    assert main(["study", str(STUDY), "--out", str(study)]) == 2
+    assert "--resume" in capsys.readouterr().err
+
+
+def test_robust_spread_and_bootstrap_against_theory():
+    rng = np.random.default_rng(1)
+    x = rng.normal(0.3, 2.0, size=(400, 50))
+    # For Gaussian errors 1.4826 MAD estimates sigma.
+    assert robust_std(x.ravel()) == pytest.approx(2.0, rel=0.03)
+    assert MAD_TO_STD == pytest.approx(1 / 0.6744897501960817, rel=1e-4)
+    # Independent beams: the bootstrap interval of the std has the width of the normal
+    # theory, 2 * 1.96 * sigma / sqrt(2 N), and that of the bias 2 * 1.96 * sigma / sqrt(N).
+    (s_lo, s_hi), (b_lo, b_hi) = bootstrap(x, block=1)
+    n = x.size
+    assert s_hi - s_lo == pytest.approx(2 * 1.96 * 2.0 / np.sqrt(2 * n), rel=0.2)
+    assert b_hi - b_lo == pytest.approx(2 * 1.96 * 2.0 / np.sqrt(n), rel=0.2)
+    # Correlated beams (each value repeated over 5 beams): blocks of 5 see the wider spread.
+    y = np.repeat(x[:80], 5, axis=0)
+    narrow = np.diff(bootstrap(y, block=1)[1])[0]
+    wide = np.diff(bootstrap(y, block=5)[1])[0]
+    assert wide > 1.8 * narrow  # sqrt(5) = 2.24 in theory
+
+
+def test_wrap_puts_differences_on_the_circle():
+    d = np.array([359.0, -359.0, 181.0, 10.0])
+    assert np.allclose(wrap(d, 360.0), [-1.0, 1.0, -179.0, 10.0])
+
+
+def _mtimes(folder: Path) -> dict[str, float]:
+    return {str(p): p.stat().st_mtime_ns for p in folder.rglob("*") if p.is_file()}
+
+
+def test_kill_9_mid_study_then_resume(tmp_path, study):
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "pasim_graph", "study", str(STUDY), "--out", str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    manifest = out / "pasim-study.json"
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline:
+        try:
+            done = len(json.loads(manifest.read_text())["runs"])
+        except (OSError, ValueError):
+            done = 0
+        if done >= 3 or proc.poll() is not None:
+            break
+        time.sleep(0.05)
+    assert proc.poll() is None, "the study ended before it could be killed"
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    finished = json.loads(manifest.read_text())["runs"]
+    assert 3 <= len(finished) < 8
+    before = {k: _mtimes(out / "runs" / k) for k in finished}
+    res = subprocess.run([*cmd, "--resume"], capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    # A run that finished between its store and the manifest is kept too.
+    kept = int(res.stderr.split("keeping ")[1].split()[0])
+    assert kept >= len(finished)
+    for k, times in before.items():
+        assert _mtimes(out / "runs" / k) == times, f"{k} was rewritten"
+    assert json.loads((out / "scores.json").read_text()) == scores(study)
