@@ -256,6 +256,8 @@ def _graph_variants() -> list[tuple[str, Any, RunOptions]]:
     graph uses: the ideal amplifier, every weather fidelity level, one field only."""
     out = []
     for path in sorted(GRAPHS.glob("*.yaml")):
+        if path.name.endswith("_study.yaml"):
+            continue  # a study file, not a graph (tests/test_study_files.py)
         out.append((path.stem, path, RunOptions(save_iq=True, chunk_beams=2)))
     uniform = GRAPHS / "uniform_ideal.yaml"
     for method in ("expected", "combined", "monte_carlo"):
