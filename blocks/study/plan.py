@@ -229,6 +229,7 @@ def _truth_problems(study: Study) -> list[Problem]:
     """A case's sector or elevation that its truth file does not cover."""
     from .. import DEFAULT_SCENE
     from ..truth.nexrad_io import read_truth_sweep
+    from ..truth.radar_files import is_level2, read_radar_sweep
 
     out = []
     for case in study.cases:
@@ -236,7 +237,9 @@ def _truth_problems(study: Study) -> list[Problem]:
         if case.truth and not Path(case.truth).is_file():
             continue  # reported by the model
         try:
-            sweep = read_truth_sweep(path, case.elevation)
+            # the truth block's own choice of reader: Level-II, or xradar for other formats
+            reader = read_truth_sweep if is_level2(path) else read_radar_sweep
+            sweep = reader(path, case.elevation)
         except Exception as exc:  # a broken file: named, with its reason
             out.append(Problem(study.file, case.line, "", f"case '{case.name}'", f"truth: {exc}"))
             continue
