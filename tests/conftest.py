@@ -37,3 +37,38 @@ def truth_dataset():
 
     block = NexradTruth(name="truth")
     return block.process({}, Chunk(beams=np.arange(0), resource=block.load()))["truth"]
+
+
+def pasim(capsys, *argv: str) -> tuple[int, str]:
+    """``pasim ARGV`` in this process: exit code (argparse's SystemExit too) and stderr."""
+    from pasim_graph.cli import main
+
+    try:
+        code = main(list(argv))
+    except SystemExit as exc:
+        code = exc.code
+    return code, capsys.readouterr().err
+
+
+def pasim_out(capsys, *argv: str) -> tuple[int, str, str]:
+    """``pasim ARGV`` in this process: exit code, stdout and stderr."""
+    from pasim_graph.cli import main
+
+    try:
+        code = main(list(argv))
+    except SystemExit as exc:
+        code = exc.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def same_sweep(a, b) -> None:
+    """Two stores' sweeps hold the same variables with the same values (NaN where NaN)."""
+    import numpy as np
+    import xarray as xr
+
+    x = xr.open_datatree(a, engine="zarr")["sweep_0"].to_dataset()
+    y = xr.open_datatree(b, engine="zarr")["sweep_0"].to_dataset()
+    assert sorted(x.data_vars) == sorted(y.data_vars)
+    for name in y.data_vars:
+        np.testing.assert_array_equal(x[name].values, y[name].values, err_msg=name)

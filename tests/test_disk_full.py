@@ -13,26 +13,16 @@ from __future__ import annotations
 import errno
 import threading
 
-import numpy as np
 import pytest
-import xarray as xr
 import zarr.storage._local as zlocal
 
 from pasim_graph.cli import main
 from pasim_graph.store import is_store, run_state
 
-from .conftest import GRAPHS
+from .conftest import GRAPHS, pasim, same_sweep
 
 RUN = ["run", str(GRAPHS / "uniform_ideal.yaml"), "--set", "scan.azimuth_stop_deg=8"]
 RUN += ["--set", "scan.pulses=16", "--chunk", "2", "--seed", "4"]
-
-
-def pasim(capsys, *argv: str) -> tuple[int, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    return code, capsys.readouterr().err
 
 
 @pytest.fixture(scope="module")
@@ -71,14 +61,6 @@ class FullAfter:
         return self.real(*args, **kwargs)
 
 
-def same(a, b) -> None:
-    x = xr.open_datatree(a, engine="zarr")["sweep_0"].to_dataset()
-    y = xr.open_datatree(b, engine="zarr")["sweep_0"].to_dataset()
-    assert sorted(x.data_vars) == sorted(y.data_vars)
-    for name in x.data_vars:
-        np.testing.assert_array_equal(x[name].values, y[name].values, err_msg=name)
-
-
 def test_disk_full_at_every_stage_exits_2_and_resume_completes(
     reference, tmp_path, capsys, monkeypatch
 ):
@@ -104,12 +86,12 @@ def test_disk_full_at_every_stage_exits_2_and_resume_completes(
             assert run_state(out)[0].get("pasim_complete") != "true", f"write {n}"
             code, err = pasim(capsys, *RUN, "--out", str(out), "--resume")
             assert code == 0, f"resume after write {n}: {err}"
-            same(out, reference)
+            same_sweep(out, reference)
         else:
             outcomes["none kept"] += 1
             assert "run it again" in err, err
             assert pasim(capsys, *RUN, "--out", str(out))[0] == 0, f"rerun after write {n}"
-            same(out, reference)
+            same_sweep(out, reference)
     assert outcomes["resumable"] >= 5, outcomes
 
 

@@ -17,14 +17,12 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import pytest
-import xarray as xr
 
 from pasim_graph.cli import main
 from pasim_graph.store import run_state
 
-from .conftest import GRAPHS, ROOT
+from .conftest import GRAPHS, ROOT, same_sweep
 
 RUN = ["run", str(GRAPHS / "uniform_ideal.yaml"), "--set", "scan.azimuth_stop_deg=40"]
 RUN += ["--chunk", "1", "--seed", "21"]
@@ -89,13 +87,6 @@ def reference(tmp_path_factory):
     return out
 
 
-def same(a, b) -> None:
-    x = xr.open_datatree(a, engine="zarr")["sweep_0"].to_dataset()
-    y = xr.open_datatree(b, engine="zarr")["sweep_0"].to_dataset()
-    for name in x.data_vars:
-        np.testing.assert_array_equal(x[name].values, y[name].values, err_msg=name)
-
-
 def start_run(cluster: Cluster, out: Path) -> subprocess.Popen:
     proc = subprocess.Popen(
         [
@@ -135,7 +126,7 @@ def test_a_killed_worker_is_survived_with_the_same_numbers(tmp_path, reference):
         assert proc.returncode == 0, err
     finally:
         cluster.close()
-    same(out, reference)
+    same_sweep(out, reference)
 
 
 def test_a_killed_scheduler_ends_the_run_cleanly_and_resume_completes(tmp_path, reference, capsys):
@@ -153,4 +144,4 @@ def test_a_killed_scheduler_ends_the_run_cleanly_and_resume_completes(tmp_path, 
     state = run_state(out)
     assert state is not None and state[0]["pasim_complete"] != "true"
     assert main([*RUN, "--out", str(out), "--resume"]) == 0
-    same(out, reference)
+    same_sweep(out, reference)

@@ -8,20 +8,9 @@ import shutil
 
 import pytest
 
-from pasim_graph.cli import main
-
-from .conftest import ROOT
+from .conftest import ROOT, pasim_out
 
 BUNDLED = ROOT / "blocks" / "data" / "KLBB20160601_150025_V06"
-
-
-def pasim(capsys, *argv: str) -> tuple[int, str, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 @pytest.fixture
@@ -44,7 +33,7 @@ def archive(tmp_path, monkeypatch):
 
 def test_the_nearest_volume_is_fetched_and_cached(archive, tmp_path, capsys):
     cache = tmp_path / "cache"
-    code, out, err = pasim(capsys, "fetch", "KTLX", "2013-05-20T20:08Z", "--cache", str(cache))
+    code, out, err = pasim_out(capsys, "fetch", "KTLX", "2013-05-20T20:08Z", "--cache", str(cache))
     assert code == 0, err
     path = out.strip()
     # 20:06:27 is 1.5 min away, 20:10:56 is 2.9 min: the nearest, not the next
@@ -52,23 +41,27 @@ def test_the_nearest_volume_is_fetched_and_cached(archive, tmp_path, capsys):
     assert open(path, "rb").read() == b"AR2V0006.200627"
     # cached: the archive is not asked for the bytes again
     (archive / "2013/05/20/KTLX/KTLX20130520_200627_V06").write_bytes(b"changed")
-    code, again, _ = pasim(capsys, "fetch", "ktlx", "2013-05-20 20:07", "--cache", str(cache))
+    code, again, _ = pasim_out(capsys, "fetch", "ktlx", "2013-05-20 20:07", "--cache", str(cache))
     assert code == 0 and again.strip() == path and open(path, "rb").read() == b"AR2V0006.200627"
     assert not list(cache.rglob("*.partial"))
 
 
 def test_near_midnight_the_day_before_is_searched(archive, tmp_path, capsys):
-    code, out, err = pasim(capsys, "fetch", "KTLX", "2013-05-20T00:01Z", "--cache", str(tmp_path))
+    code, out, err = pasim_out(
+        capsys, "fetch", "KTLX", "2013-05-20T00:01Z", "--cache", str(tmp_path)
+    )
     assert code == 0, err
     assert out.strip().endswith("2013/05/19/KTLX/KTLX20130519_235800_V06.gz")
 
 
 def test_a_fetched_volume_runs_as_truth(archive, tmp_path, capsys):
-    code, out, err = pasim(capsys, "fetch", "KLBB", "2016-06-01T15:00Z", "--cache", str(tmp_path))
+    code, out, err = pasim_out(
+        capsys, "fetch", "KLBB", "2016-06-01T15:00Z", "--cache", str(tmp_path)
+    )
     assert code == 0, err
     args = ["run", str(ROOT / "graphs" / "generic_radar.yaml"), "--truth", out.strip()]
     args += ["--sector", "282:284", "--set", "scan.pulses=8", "--out", str(tmp_path / "s")]
-    code, _, err = pasim(capsys, *args)
+    code, _, err = pasim_out(capsys, *args)
     assert code == 0, err
 
 
@@ -82,7 +75,7 @@ def test_a_fetched_volume_runs_as_truth(archive, tmp_path, capsys):
     ],
 )
 def test_no_volume_or_a_bad_request_is_named(archive, tmp_path, capsys, radar, time, said):
-    code, _, err = pasim(capsys, "fetch", radar, time, "--cache", str(tmp_path))
+    code, _, err = pasim_out(capsys, "fetch", radar, time, "--cache", str(tmp_path))
     assert code == 2 and said in err and "Traceback" not in err, err
     assert f"fetch {radar} {time}" in err
 
@@ -90,5 +83,5 @@ def test_no_volume_or_a_bad_request_is_named(archive, tmp_path, capsys, radar, t
 def test_an_unreachable_archive_is_named(tmp_path, capsys, monkeypatch):
     """No network: an archive nothing answers at (a closed local port) ends in one line."""
     monkeypatch.setenv("PASIM_NEXRAD_ARCHIVE", "ftp://127.0.0.1:1/nexrad")
-    code, _, err = pasim(capsys, "fetch", "KTLX", "2013-05-20T20:08Z", "--cache", str(tmp_path))
+    code, _, err = pasim_out(capsys, "fetch", "KTLX", "2013-05-20T20:08Z", "--cache", str(tmp_path))
     assert code == 2 and "ftp://127.0.0.1:1/nexrad" in err and "unreachable" in err, err

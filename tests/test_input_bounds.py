@@ -18,20 +18,11 @@ import time
 
 import pytest
 
-from pasim_graph.cli import main
 from pasim_graph.graphfile import parse, parse_value
 
-from .conftest import GRAPHS, ROOT
+from .conftest import GRAPHS, ROOT, pasim
 
 GENERIC = str(GRAPHS / "generic_radar.yaml")
-
-
-def pasim(capsys, *argv: str) -> tuple[int, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    return code, capsys.readouterr().err
 
 
 @pytest.mark.parametrize(

@@ -20,21 +20,11 @@ from pathlib import Path
 
 import pytest
 
-from pasim_graph.cli import main
-
-from .conftest import GRAPHS, ROOT
+from .conftest import GRAPHS, ROOT, pasim
 
 BUNDLED = ROOT / "blocks" / "data" / "KLBB20160601_150025_V06"
 RUN = ["run", str(GRAPHS / "generic_radar.yaml"), "--sector", "282:284"]
 RUN += ["--set", "scan.pulses=8"]
-
-
-def pasim(capsys, *argv: str) -> tuple[int, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    return code, capsys.readouterr().err
 
 
 def plain_volume() -> bytearray:

@@ -22,21 +22,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pasim_graph.cli import main
-
-from .conftest import GRAPHS, ROOT
+from .conftest import GRAPHS, ROOT, pasim_out
 
 SHARED = ROOT.parent / "shared" / "data"
 GENERIC = str(GRAPHS / "generic_radar.yaml")
-
-
-def pasim(capsys, *argv: str) -> tuple[int, str, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def shared(name: str):
@@ -130,9 +119,9 @@ def test_a_cfradial_file_scores_as_the_level2_file_at_the_expected_level(tmp_pat
     scores = {}
     for name, truth in (("level2", []), ("cfradial", ["--truth", str(path)])):
         out = tmp_path / f"{name}.zarr"
-        code, _, err = pasim(capsys, "run", GENERIC, *args, *truth, "--out", str(out))
+        code, _, err = pasim_out(capsys, "run", GENERIC, *args, *truth, "--out", str(out))
         assert code == 0, err
-        code, text, err = pasim(capsys, "score", str(out), "--json")
+        code, text, err = pasim_out(capsys, "score", str(out), "--json")
         scores[name] = json.loads(text)
     assert scores["cfradial"] == scores["level2"]
 
@@ -140,12 +129,12 @@ def test_a_cfradial_file_scores_as_the_level2_file_at_the_expected_level(tmp_pat
 def test_iris_sigmet_runs_and_scores_all_six_moments(tmp_path, capsys):
     path = shared("SUR210819000227.RAWKPJV")
     out = tmp_path / "iris.zarr"
-    code, _, err = pasim(
+    code, _, err = pasim_out(
         capsys, "run", GENERIC, "--truth", str(path), "--sector", "0:10", "--out", str(out)
     )
     assert code == 0, err
     assert "single polarisation" not in err
-    code, text, err = pasim(capsys, "score", str(out), "--json")
+    code, text, err = pasim_out(capsys, "score", str(out), "--json")
     scores = json.loads(text)
     for moment in ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH"):
         assert scores[moment]["count"] > 100, moment
@@ -154,24 +143,28 @@ def test_iris_sigmet_runs_and_scores_all_six_moments(tmp_path, capsys):
 def test_odim_runs_single_polarisation_and_says_so(tmp_path, capsys):
     path = shared("T_PAZD63_C_LFPW_20230420065331.h5")
     out = tmp_path / "odim.zarr"
-    code, _, err = pasim(
+    code, _, err = pasim_out(
         capsys, "run", GENERIC, "--truth", str(path), "--sector", "0:90", "--out", str(out)
     )
     assert code == 0, err
     assert err.count("single polarisation") == 1 and "no WRADH" in err, err
-    scores = json.loads(pasim(capsys, "score", str(out), "--json")[1])
+    scores = json.loads(pasim_out(capsys, "score", str(out), "--json")[1])
     assert sorted(scores) == ["DBZH", "VRADH"]
 
 
 def test_uf_rhis_are_refused_by_name(tmp_path, capsys):
     path = shared("MC3E_NPOL_2011_0524_2356_hid.uf.gz")
-    code, _, err = pasim(capsys, "run", GENERIC, "--truth", str(path), "--out", str(tmp_path / "s"))
+    code, _, err = pasim_out(
+        capsys, "run", GENERIC, "--truth", str(path), "--out", str(tmp_path / "s")
+    )
     assert code == 2 and "holds only RHI sweeps" in err and "Traceback" not in err, err
 
 
 def test_a_file_no_backend_reads_names_the_formats_tried(tmp_path, capsys):
     path = tmp_path / "noise.bin"
     path.write_bytes(np.random.default_rng(0).bytes(5000))
-    code, _, err = pasim(capsys, "run", GENERIC, "--truth", str(path), "--out", str(tmp_path / "s"))
+    code, _, err = pasim_out(
+        capsys, "run", GENERIC, "--truth", str(path), "--out", str(tmp_path / "s")
+    )
     assert code == 2, err
     assert "no radar-file reader opens it" in err and "IRIS/Sigmet" in err and "UF" in err, err

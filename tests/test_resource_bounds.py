@@ -15,20 +15,11 @@ import subprocess
 import sys
 import time
 
-from pasim_graph.cli import main
 from pasim_graph.store import run_state
 
-from .conftest import GRAPHS, ROOT
+from .conftest import GRAPHS, ROOT, pasim
 
 GENERIC = str(GRAPHS / "generic_radar.yaml")
-
-
-def pasim(capsys, *argv: str) -> tuple[int, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    return code, capsys.readouterr().err
 
 
 def test_more_workers_than_cores_is_refused(tmp_path, capsys):

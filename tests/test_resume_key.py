@@ -6,19 +6,10 @@ from __future__ import annotations
 import shutil
 
 import pasim_graph
-from pasim_graph.cli import main
 
-from .conftest import FIXTURES, GRAPHS, ROOT
+from .conftest import FIXTURES, GRAPHS, ROOT, pasim
 
 TINY = str(FIXTURES / "tiny_uniform.yaml")
-
-
-def pasim(capsys, *argv: str) -> tuple[int, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    return code, capsys.readouterr().err
 
 
 def test_resume_after_an_upgrade_names_both_versions(tmp_path, capsys, monkeypatch):

@@ -13,14 +13,12 @@ import subprocess
 import sys
 import time
 
-import numpy as np
 import pytest
-import xarray as xr
 
 from pasim_graph.cli import main
 from pasim_graph.store import LOCK, run_state
 
-from .conftest import GRAPHS, ROOT
+from .conftest import GRAPHS, ROOT, same_sweep
 
 RUN = ["run", str(GRAPHS / "uniform_ideal.yaml"), "--set", "scan.azimuth_stop_deg=30"]
 RUN += ["--chunk", "1", "--seed", "12"]
@@ -31,13 +29,6 @@ def reference(tmp_path_factory):
     out = tmp_path_factory.mktemp("ref") / "ref.zarr"
     assert main([*RUN, "--out", str(out)]) == 0
     return out
-
-
-def same(a, b) -> None:
-    x = xr.open_datatree(a, engine="zarr")["sweep_0"].to_dataset()
-    y = xr.open_datatree(b, engine="zarr")["sweep_0"].to_dataset()
-    for name in x.data_vars:
-        np.testing.assert_array_equal(x[name].values, y[name].values, err_msg=name)
 
 
 @pytest.mark.parametrize(
@@ -72,7 +63,7 @@ def test_a_signalled_run_ends_cleanly_and_resumes(tmp_path, reference, capsys, s
     kept = int(run_state(out)[1].sum())
     assert f" {kept} of " in err, err
     assert main([*RUN, "--out", str(out), "--resume"]) == 0
-    same(out, reference)
+    same_sweep(out, reference)
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=str)

@@ -20,18 +20,10 @@ import xarray as xr
 from pasim_graph.cli import main
 from pasim_graph.store import check_chunks
 
-from .conftest import FIXTURES
+from .conftest import FIXTURES, pasim
 
 TINY = str(FIXTURES / "tiny_uniform.yaml")
 RUN = ["run", TINY, "--chunk", "1", "--seed", "5", "--save-iq"]
-
-
-def pasim(capsys, *argv: str) -> tuple[int, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    return code, capsys.readouterr().err
 
 
 @pytest.fixture(scope="module")
