@@ -190,3 +190,32 @@ def test_kill_9_mid_study_then_resume(tmp_path, study):
     for k, times in before.items():
         assert _mtimes(out / "runs" / k) == times, f"{k} was rewritten"
     assert json.loads((out / "scores.json").read_text()) == scores(study)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=str)
+def test_a_signalled_study_ends_with_one_line_and_resumes(tmp_path, study, sig):
+    """SIGINT / SIGTERM: exit 130 / 143, one line saying how to go on, no traceback, no lock
+    left in any run's store; --resume then gives the uninterrupted study's scores."""
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "pasim_graph", "study", str(STUDY), "--out", str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    manifest = out / "pasim-study.json"
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline:
+        try:
+            done = len(json.loads(manifest.read_text())["runs"])
+        except (OSError, ValueError):
+            done = 0
+        if done >= 2 or proc.poll() is not None:
+            break
+        time.sleep(0.05)
+    assert proc.poll() is None, "the study ended before it could be signalled"
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 128 + sig, err
+    assert "Traceback" not in err and f"stopped by {signal.Signals(sig).name}" in err, err
+    assert "--resume" in err
+    assert not list(out.rglob("pasim-run.lock"))
+    res = subprocess.run([*cmd, "--resume"], capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    assert json.loads((out / "scores.json").read_text()) == scores(study)
