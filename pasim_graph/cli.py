@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import inspect
 import json
-import math
 import os
 import sys
 import time
@@ -19,11 +18,14 @@ from typing import Any
 
 from . import __version__, registry
 from .block import RunNote
-from .graph import Graph, GraphError, parse_overrides, validate
-from .graphfile import Problem, read
+from .graph import Graph, GraphError, resolve
 from .interrupt import StopMessage, Stopped, stop_on_signals
+from .serialize import json_safe
 
 EXIT_USAGE = 2
+
+#: The options that :func:`pasim_graph.graph.resolve` names in its problems.
+OPTIONS = {"set": "--set", "truth": "--truth", "sector": "--sector"}
 
 
 class UserError(Exception):
@@ -36,134 +38,13 @@ def _graph(args: argparse.Namespace) -> Graph:
 
 def _graph_and_overrides(args: argparse.Namespace) -> tuple[Graph, dict[str, Any]]:
     """The validated graph and the overrides (``--set``, ``--truth``, ``--sector``) it got."""
-    spec = read(args.graph)
-    items = getattr(args, "set", None) or []
-    overrides, bad = parse_overrides(items)
-    problems = [Problem(spec.file, 0, "", f"--set {b}", "expected BLOCK.PARAM=VALUE") for b in bad]
-    seen: dict[str, str] = {}
-    for item in items:
-        key = item.partition("=")[0].strip()
-        if key in seen and "." in key:
-            problems.append(
-                Problem(
-                    spec.file,
-                    0,
-                    "",
-                    f"--set {item}",
-                    f"{key} is set twice (also --set {seen[key]})",
-                )
-            )
-        seen.setdefault(key, item)
-    roles: dict[str, list[str]] = {}
-    for name, b in spec.blocks.items():
-        cls = registry.get(b.type)
-        if cls is not None and cls.role:
-            roles.setdefault(cls.role, []).append(name)
-
-    def by_role(role: str, option: str) -> str | None:
-        names = roles.get(role, [])
-        if len(names) != 1:
-            problems.append(
-                Problem(
-                    spec.file,
-                    0,
-                    "",
-                    option,
-                    f"needs exactly one {role} block in the graph, found {len(names)}",
-                )
-            )
-            return None
-        return names[0]
-
-    def conflict(option: str, key: str) -> bool:
-        if key in overrides:
-            problems.append(
-                Problem(spec.file, 0, "", option, f"sets {key} and so does --set {key}: give one")
-            )
-            return True
-        return False
-
-    truth_file = getattr(args, "truth", None)
-    if truth_file is not None and not str(truth_file).strip():
-        problems.append(
-            Problem(
-                spec.file,
-                0,
-                "",
-                "--truth",
-                "is empty (an unset shell variable?): give a radar file, or leave --truth out "
-                "for the graph's own truth",
-            )
-        )
-    elif truth_file is not None:
-        block = by_role("truth", "--truth")
-        if block and not conflict("--truth", f"{block}.path"):
-            overrides[f"{block}.path"] = str(truth_file)
-    if getattr(args, "sector", None) is not None:
-        block = by_role("scan", "--sector")
-        sector, problem = parse_sector(args.sector)
-        if problem:
-            problems.append(Problem(spec.file, 0, "", f"--sector {args.sector}", problem))
-        elif block and sector:
-            keys = (f"{block}.azimuth_start_deg", f"{block}.azimuth_stop_deg")
-            if not any([conflict("--sector", k) for k in keys]):
-                overrides[keys[0]], overrides[keys[1]] = sector
-    try:
-        graph = validate(spec, overrides)
-    except GraphError as exc:
-        raise GraphError(exc.problems + problems) from None
-    if problems:
-        raise GraphError(problems)
-    truth_sector = _truth_sector(graph)
-    if truth_sector:
-        overrides |= truth_sector
-        graph = validate(spec, overrides)
-    return graph, overrides
-
-
-def parse_sector(text: str) -> tuple[tuple[float, float] | None, str | None]:
-    """``AZ0:AZ1`` in degrees clockwise, as (start, stop) in [0, 360], or a problem.
-
-    Angles outside 0-360 are taken modulo 360, so ``-10:10`` is the 20 deg sector through
-    north (``350:10``); ``0:360`` is the full circle; equal ends (``10:10``) are refused,
-    since they name no sector.
-    """
-    try:
-        a0, a1 = (float(x) for x in text.split(":"))
-    except ValueError:
-        return None, "expected AZ0:AZ1 in degrees clockwise (e.g. 240:330, or 350:10 through north)"
-    if not (math.isfinite(a0) and math.isfinite(a1)):
-        return None, "expected finite angles in degrees"
-    if a0 == a1:
-        return None, (
-            f"the sector starts and stops at {a0:g} deg and holds no beam; for the full circle "
-            "give 0:360"
-        )
-    if a1 - a0 > 360.0:
-        return None, f"the sector spans {a1 - a0:g} deg, more than the full circle (0:360)"
-    start = a0 % 360.0
-    stop = a1 % 360.0
-    if stop == 0.0 and a1 != 0.0 and start == 0.0:
-        stop = 360.0  # 0:360 and -360:0 are the full circle
-    return (start, stop), None
-
-
-def _truth_sector(graph: Graph) -> dict[str, Any]:
-    """Let a truth block that can read a sector read only the scan's (plus its margin).
-
-    Applies when there is one truth and one scan block, both declare ``azimuth_start_deg`` and
-    ``azimuth_stop_deg``, and the truth's sector is not set already.
-    """
-    keys = ("azimuth_start_deg", "azimuth_stop_deg")
-    truth, scan = graph.by_role("truth"), graph.by_role("scan")
-    if len(truth) != 1 or len(scan) != 1:
-        return {}
-    t, s = truth[0], scan[0]
-    if not all(k in graph.classes[t].params and k in graph.classes[s].params for k in keys):
-        return {}
-    if any(graph.value(t, k) is not None for k in keys):
-        return {}
-    return {f"{t}.{k}": graph.value(s, k) for k in keys}
+    return resolve(
+        args.graph,
+        settings=getattr(args, "set", None) or [],
+        truth=getattr(args, "truth", None),
+        sector=getattr(args, "sector", None),
+        labels=OPTIONS,
+    )
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
@@ -393,7 +274,7 @@ def cmd_tradeoff(args: argparse.Namespace) -> int:
     except TradeoffError as exc:
         raise UserError(f"{args.graph}: {exc}") from None
     if args.json:
-        print(json.dumps(_json_safe(rows), indent=1))
+        print(json.dumps(json_safe(rows), indent=1))
     else:
         print(format_table(rows, keys))
     return 0
@@ -410,19 +291,10 @@ def cmd_score(args: argparse.Namespace) -> int:
     if not scores:
         raise UserError(f"{args.store}: holds no scored fields (the graph had no scorer)")
     if args.json:
-        print(json.dumps(_json_safe(scores), indent=2))
+        print(json.dumps(json_safe(scores), indent=2))
     else:
         _print_scores(scores, sys.stdout)
     return 0
-
-
-def _json_safe(x: Any) -> Any:
-    """NaN (no estimate, nothing scored) becomes null: JSON has no NaN."""
-    if isinstance(x, dict):
-        return {k: _json_safe(v) for k, v in x.items()}
-    if isinstance(x, list):
-        return [_json_safe(v) for v in x]
-    return None if isinstance(x, float) and math.isnan(x) else x
 
 
 def _print_scores(scores: dict[str, dict[str, Any]], stream: Any) -> None:

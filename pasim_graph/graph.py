@@ -1,16 +1,19 @@
 """The graph model: a validated network of blocks on networkx.
 
-:func:`load` reads a graph file, applies command-line overrides and validates everything
-before any computation, collecting every problem (Hamilton-style) into one
-:class:`GraphError`.
+:func:`resolve` is the one path from a graph file and a user's choices (parameter overrides,
+a truth file, a sector) to a validated graph; the command line, the studio and :func:`load`
+all go through it. It validates everything before any computation, collecting every problem
+(Hamilton-style) into one :class:`GraphError`.
 """
 
 from __future__ import annotations
 
 import copy
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import networkx as nx
 
@@ -107,9 +110,179 @@ class Graph:
 
 
 def load(path: str | Path, overrides: dict[str, Any] | None = None) -> Graph:
-    """Read, override and validate a graph file; raise :class:`GraphError` listing every problem."""
-    spec = read(path)
-    return validate(spec, overrides)
+    """Read, override and validate a graph file; raise :class:`GraphError` listing every problem.
+
+    The graph :func:`resolve` gives (so the same as ``pasim validate`` and ``pasim run``).
+    """
+    return resolve(path, overrides).graph
+
+
+class Resolved(NamedTuple):
+    """A validated graph and every parameter override it got (the user's and the derived)."""
+
+    graph: Graph
+    overrides: dict[str, Any]
+
+
+#: How :func:`resolve` names each choice in a problem; the command line names its options.
+LABELS = {"set": "set", "truth": "truth", "sector": "sector"}
+
+
+def resolve(
+    graph: GraphSpec | str | Path,
+    overrides: Mapping[str, Any] | None = None,
+    *,
+    settings: Sequence[str] = (),
+    truth: str | Path | None = None,
+    sector: str | None = None,
+    labels: Mapping[str, str] = LABELS,
+) -> Resolved:
+    """The one path from a graph and a user's choices to a validated :class:`Graph`.
+
+    ``overrides`` (``{"block.param": value}``) and ``settings`` (``"BLOCK.PARAM=VALUE"``
+    text, as ``pasim run --set`` takes it) set parameters. ``truth`` sets the ``path`` of
+    the graph's one truth-role block and ``sector`` (``"AZ0:AZ1"``, :func:`parse_sector`)
+    the azimuth sector of its one scan-role block. Then a truth block that can read a sector
+    reads only the scan's (:func:`truth_sector`). Every problem, of the graph and of the
+    choices, is raised at once in one :class:`GraphError`; ``labels`` names the choices in
+    it (the command line passes its option names).
+    """
+    spec = graph if isinstance(graph, GraphSpec) else read(graph)
+    where = {**LABELS, **labels}
+    parsed, bad = parse_overrides(list(settings))
+    chosen = {**(overrides or {}), **parsed}
+    problems = [
+        Problem(spec.file, 0, "", f"{where['set']} {b}", "expected BLOCK.PARAM=VALUE") for b in bad
+    ]
+    seen: dict[str, str] = {}
+    for item in settings:
+        key = item.partition("=")[0].strip()
+        if key in seen and "." in key:
+            problems.append(
+                Problem(
+                    spec.file,
+                    0,
+                    "",
+                    f"{where['set']} {item}",
+                    f"{key} is set twice (also {where['set']} {seen[key]})",
+                )
+            )
+        seen.setdefault(key, item)
+    roles: dict[str, list[str]] = {}
+    for name, b in spec.blocks.items():
+        cls = registry.get(b.type)
+        if cls is not None and cls.role:
+            roles.setdefault(cls.role, []).append(name)
+
+    def by_role(role: str, option: str) -> str | None:
+        names = roles.get(role, [])
+        if len(names) != 1:
+            problems.append(
+                Problem(
+                    spec.file,
+                    0,
+                    "",
+                    option,
+                    f"needs exactly one {role} block in the graph, found {len(names)}",
+                )
+            )
+            return None
+        return names[0]
+
+    def conflict(option: str, key: str) -> bool:
+        if key in chosen:
+            problems.append(
+                Problem(
+                    spec.file,
+                    0,
+                    "",
+                    option,
+                    f"sets {key} and so does {where['set']} {key}: give one",
+                )
+            )
+            return True
+        return False
+
+    if truth is not None and not str(truth).strip():
+        problems.append(
+            Problem(
+                spec.file,
+                0,
+                "",
+                where["truth"],
+                "is empty (an unset shell variable?): give a radar file, or leave "
+                f"{where['truth']} out for the graph's own truth",
+            )
+        )
+    elif truth is not None:
+        block = by_role("truth", where["truth"])
+        if block and not conflict(where["truth"], f"{block}.path"):
+            chosen[f"{block}.path"] = str(truth)
+    if sector is not None:
+        block = by_role("scan", where["sector"])
+        azimuths, problem = parse_sector(sector)
+        if problem:
+            problems.append(Problem(spec.file, 0, "", f"{where['sector']} {sector}", problem))
+        elif block and azimuths:
+            keys = (f"{block}.azimuth_start_deg", f"{block}.azimuth_stop_deg")
+            if not any([conflict(where["sector"], k) for k in keys]):
+                chosen[keys[0]], chosen[keys[1]] = azimuths
+    try:
+        result = validate(spec, chosen)
+    except GraphError as exc:
+        raise GraphError(exc.problems + problems) from None
+    if problems:
+        raise GraphError(problems)
+    derived = truth_sector(result)
+    if derived:
+        chosen |= derived
+        result = validate(spec, chosen)
+    return Resolved(result, chosen)
+
+
+def parse_sector(text: str) -> tuple[tuple[float, float] | None, str | None]:
+    """``AZ0:AZ1`` in degrees clockwise, as (start, stop) in [0, 360], or a problem.
+
+    Angles outside 0-360 are taken modulo 360, so ``-10:10`` is the 20 deg sector through
+    north (``350:10``); ``0:360`` is the full circle; equal ends (``10:10``) are refused,
+    since they name no sector.
+    """
+    try:
+        a0, a1 = (float(x) for x in text.split(":"))
+    except ValueError:
+        return None, "expected AZ0:AZ1 in degrees clockwise (e.g. 240:330, or 350:10 through north)"
+    if not (math.isfinite(a0) and math.isfinite(a1)):
+        return None, "expected finite angles in degrees"
+    if a0 == a1:
+        return None, (
+            f"the sector starts and stops at {a0:g} deg and holds no beam; for the full circle "
+            "give 0:360"
+        )
+    if a1 - a0 > 360.0:
+        return None, f"the sector spans {a1 - a0:g} deg, more than the full circle (0:360)"
+    start = a0 % 360.0
+    stop = a1 % 360.0
+    if stop == 0.0 and a1 != 0.0 and start == 0.0:
+        stop = 360.0  # 0:360 and -360:0 are the full circle
+    return (start, stop), None
+
+
+def truth_sector(graph: Graph) -> dict[str, Any]:
+    """Let a truth block that can read a sector read only the scan's (plus its margin).
+
+    Applies when there is one truth and one scan block, both declare ``azimuth_start_deg`` and
+    ``azimuth_stop_deg``, and the truth's sector is not set already. Returns the overrides.
+    """
+    keys = ("azimuth_start_deg", "azimuth_stop_deg")
+    truth, scan = graph.by_role("truth"), graph.by_role("scan")
+    if len(truth) != 1 or len(scan) != 1:
+        return {}
+    t, s = truth[0], scan[0]
+    if not all(k in graph.classes[t].params and k in graph.classes[s].params for k in keys):
+        return {}
+    if any(graph.value(t, k) is not None for k in keys):
+        return {}
+    return {f"{t}.{k}": graph.value(s, k) for k in keys}
 
 
 def parse_overrides(items: list[str]) -> tuple[dict[str, Any], list[str]]:

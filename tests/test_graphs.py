@@ -20,12 +20,27 @@ def test_there_are_graphs():
 
 @pytest.mark.parametrize("path", FILES, ids=lambda p: p.name)
 def test_graph_validates_and_round_trips(path):
-    graph = load(path)
+    # The file as written (load() also derives the truth block's sector from the scan's, so
+    # its text carries what a run used: see test_load_adds_only_the_derived_truth_sector).
+    graph = load_text(path.read_text())
     text = graph.text()
     # load -> save -> load is identical, and the shipped file is already canonical.
     assert dumps(parse(text)) == text
     assert text == path.read_text()
     assert load_text(text).to_json()["blocks"] == graph.to_json()["blocks"]
+
+
+@pytest.mark.parametrize("path", FILES, ids=lambda p: p.name)
+def test_load_adds_only_the_derived_truth_sector(path):
+    as_written = load_text(path.read_text()).to_json()["blocks"]
+    loaded = load(path).to_json()["blocks"]
+    for name, block in loaded.items():
+        extra = {k: v for k, v in block["params"].items() if as_written[name]["params"].get(k) != v}
+        if extra:
+            assert block["type"].startswith("truth.") and set(extra) == {
+                "azimuth_start_deg",
+                "azimuth_stop_deg",
+            }, (name, extra)
 
 
 def load_text(text):

@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from pasim_graph.serialize import json_safe
+
 #: Main beam for the cross-polar level: where the port's co-polar power is within this of its
 #: peak (dB).
 MAIN_BEAM_DB = 20.0
@@ -140,12 +142,6 @@ def first_sidelobe_db(angles_deg: np.ndarray, power: np.ndarray) -> float:
         return float("nan")
 
 
-def _json_value(v: Any) -> Any:
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    return v
-
-
 class PatternCommand:
     help = "measure a graph's antenna pattern: beamwidths, sidelobes, gain, cross-pol, ZDR bias"
 
@@ -213,7 +209,7 @@ class PatternCommand:
             raise UserError(f"block {name!r} ({graph.classes[name].type_name}): {exc}") from None
         if args.plot:
             plot(args.plot, built, ideal, f"{args.graph}: {name}, steered {args.steer}")
-        figures = {k: _json_value(v) for k, v in built.items() if k != "cuts"}
+        figures = {k: json_safe(v) for k, v in built.items() if k != "cuts"}
         figures.update(
             antenna=name,
             type=graph.classes[name].type_name,
@@ -225,7 +221,7 @@ class PatternCommand:
             else "boresight",
         )
         if ideal is not None:
-            figures["ideal"] = {k: _json_value(v) for k, v in ideal.items() if k != "cuts"}
+            figures["ideal"] = {k: json_safe(v) for k, v in ideal.items() if k != "cuts"}
         if args.json:
             print(json.dumps(figures, indent=2))
             return 0

@@ -24,6 +24,7 @@ import numpy as np
 import xarray as xr
 
 from pasim_graph import Chunk, Graph
+from pasim_graph.serialize import json_safe
 
 from ..signals import SPEED_OF_LIGHT
 from ..waveforms.compression import power_efficiency, sidelobes, snr_loss_db
@@ -321,12 +322,6 @@ def _text(metrics: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _json_safe(x: Any) -> Any:
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
-
-
 class WaveformCommand:
     """The ``pasim waveform`` subcommand (registered as a ``pasim_graph.commands`` plugin)."""
 
@@ -361,7 +356,7 @@ class WaveformCommand:
             except (OSError, ValueError) as exc:
                 raise UserError(f"--plot {args.plot}: {exc}") from None
         if args.json:
-            print(json.dumps({k: _json_safe(v) for k, v in analysis.metrics.items()}, indent=2))
+            print(json.dumps({k: json_safe(v) for k, v in analysis.metrics.items()}, indent=2))
         else:
             print(_text(analysis.metrics))
         if args.plot:

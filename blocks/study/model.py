@@ -282,7 +282,7 @@ def _read_systems(study: Study, node: yaml.Node, value: Any, base: Path) -> None
 
 
 def _read_cases(study: Study, node: yaml.Node, value: Any, base: Path) -> None:
-    from pasim_graph.cli import parse_sector
+    from pasim_graph.graph import parse_sector
 
     seen: dict[str, int] = {}
     for item in _entries(study, node, "cases"):

@@ -20,6 +20,8 @@ from typing import Any
 
 import numpy as np
 
+from pasim_graph.serialize import json_safe
+
 from .model import Study
 from .plan import Run
 
@@ -394,16 +396,6 @@ def rankings(study: Study, result: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _json_safe(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {k: _json_safe(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_json_safe(v) for v in x]
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
-
-
 def csv_rows(result: dict[str, Any]) -> list[dict[str, Any]]:
     """One tidy row per system, case, point, field, gate set, reference and quantity."""
     rows = []
@@ -473,7 +465,7 @@ def csv_rows(result: dict[str, Any]) -> list[dict[str, Any]]:
 def write_scores(out: Path, result: dict[str, Any]) -> None:
     from .runner import _write_atomic
 
-    _write_atomic(out / "scores.json", json.dumps(_json_safe(result), indent=1) + "\n")
+    _write_atomic(out / "scores.json", json.dumps(json_safe(result), indent=1) + "\n")
     buf = io.StringIO()
     w = csv.DictWriter(
         buf,

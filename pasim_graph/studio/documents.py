@@ -29,7 +29,7 @@ from typing import Any
 
 from .. import registry
 from ..block import Block
-from ..graph import GraphError, validate
+from ..graph import GraphError, resolve
 from ..graphfile import (
     BLOCK_NAME,
     FORMAT,
@@ -291,7 +291,7 @@ def check(doc: Any, file: str, disk: str | None = None) -> dict[str, Any]:
         if not on_disk.problems and doc_from_spec(on_disk) == doc:
             spec = on_disk
     try:
-        validate(spec)
+        resolve(spec)
         problems: list[dict[str, Any]] = []
     except GraphError as exc:
         problems = [p.to_json() | {"text": str(p)} for p in exc.problems]

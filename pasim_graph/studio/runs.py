@@ -24,7 +24,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..cli import parse_sector
+from ..graph import parse_sector
+from ..serialize import json_safe
 from .documents import Folder, RequestError, canonical, diff, read_text, run_choices
 
 #: Beams per chunk of a studio run: small, so that progress moves in visible steps (the
@@ -59,8 +60,6 @@ class Run:
         return self.folder / "volume.zarr"
 
     def to_json(self) -> dict[str, Any]:
-        from ..cli import _json_safe
-
         end = self.finished or time.time()
         return {
             "id": self.id,
@@ -76,7 +75,7 @@ class Run:
             "progress": self.progress,
             "log": list(self.log),
             "error": self.error,
-            "scores": _json_safe(self.scores),
+            "scores": json_safe(self.scores),
             "images": self.images,
             "notes": self.notes,
             "store": str(self.store),
@@ -120,7 +119,7 @@ class Runs:
         if not isinstance(sector, str):
             raise RequestError(400, "'sector' must be text such as 280:290")
         if sector.strip():
-            _, problem = parse_sector(sector.strip())  # the command line's own rule and words
+            _, problem = parse_sector(sector.strip())  # the engine's rule, as the command line's
             if problem:
                 raise RequestError(400, f"sector {sector!r}: {problem}")
             options["sector"] = sector.strip()
@@ -308,8 +307,6 @@ class Runs:
 
     def compare(self, a_id: str, b_id: str) -> dict[str, Any]:
         """Run B against run A: each score, and B minus A (B's change from A)."""
-        from ..cli import _json_safe
-
         a, b = self.get(a_id), self.get(b_id)
         for r in (a, b):
             if r.state != "done" or r.scores is None:
@@ -334,7 +331,7 @@ class Runs:
             for k in sorted({*a.options, *b.options})
             if a.options.get(k) != b.options.get(k)
         }
-        return _json_safe(
+        return json_safe(
             {
                 "a": a.to_json() | {"log": []},
                 "b": b.to_json() | {"log": []},
