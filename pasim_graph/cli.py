@@ -329,7 +329,9 @@ def _print_scores(scores: dict[str, dict[str, Any]], stream: Any) -> None:
             )
 
 
-def parser() -> argparse.ArgumentParser:
+def parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The command line's parser; with ``argv``, plugin commands load only if it may need them
+    (so ``pasim --version`` and ``pasim run ...`` never import a plugin package)."""
     ap = argparse.ArgumentParser(
         prog="pasim",
         description="Phased-array weather radar simulator: run block graphs on real radar data.",
@@ -440,8 +442,20 @@ def parser() -> argparse.ArgumentParser:
     sc.add_argument("--json", action="store_true", help="print the scores as JSON")
     sc.set_defaults(func=cmd_score)
     _add_studio_commands(sub)
-    _add_plugin_commands(sub)
+    if _may_need_plugins(argv, set(sub.choices)):
+        _add_plugin_commands(sub)
     return ap
+
+
+def _may_need_plugins(argv: list[str] | None, builtin: set[str]) -> bool:
+    """Whether parsing ``argv`` may need the plugin commands: unless it names a built-in
+    command, or asks only for the version."""
+    if argv is None:
+        return True
+    first = next((a for a in argv if not a.startswith("-")), None)
+    if first is None:
+        return "--version" not in argv
+    return first not in builtin
 
 
 def add_graph_arguments(parser: argparse.ArgumentParser) -> None:
@@ -608,7 +622,7 @@ def main(argv: list[str] | None = None) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("default", registry.PluginWarning)
         warnings.showwarning = _show_warning
-        args = parser().parse_args(argv)
+        args = parser(argv).parse_args(argv)
     with warnings.catch_warnings():
         warnings.simplefilter("default", registry.PluginWarning)
         warnings.simplefilter("default", RunNote)
