@@ -70,6 +70,19 @@ class Chunk:
         return asked is None or any(f in asked for f in fields)
 
 
+#: Block class -> the type name the registry first loaded it under (the registry fills it).
+TYPE_NAMES: dict[type, str] = {}
+
+
+class TypeName:
+    """``Block.type_name``: a class's registered name, looked up in :data:`TYPE_NAMES`."""
+
+    def __get__(self, obj: Any, cls: type) -> str:
+        if obj is not None and "type_name" in vars(obj):
+            return str(vars(obj)["type_name"])
+        return TYPE_NAMES.get(cls, "")
+
+
 class Block:
     """Base class of every block.
 
@@ -84,8 +97,11 @@ class Block:
     outputs are shared by every chunk.
     """
 
-    #: Registered type name, e.g. ``"antenna.pencil"``; set by the registry.
-    type_name: ClassVar[str] = ""
+    #: Registered type name, e.g. ``"antenna.pencil"``: the first name the registry loaded the
+    #: class under, read from the registry's own table (:data:`TYPE_NAMES`), never written on
+    #: the class, so registering a class under a second name does not rename it. A graph's
+    #: blocks carry the name their graph gave them. Unregistered classes may set it.
+    type_name: ClassVar[str] = TypeName()  # type: ignore[assignment]
     #: Set on the block that defines the beams of a scan (exactly one per graph).
     beam_source: ClassVar[bool] = False
     #: Roles the command line can address: ``"truth"`` (``--truth``), ``"scan"`` (``--sector``).
@@ -219,10 +235,11 @@ class Block:
         return text.splitlines()[0] if text else ""
 
     @classmethod
-    def interface(cls) -> dict[str, Any]:
-        """The block's interface as JSON-ready data, read from the class alone."""
+    def interface(cls, type_name: str | None = None) -> dict[str, Any]:
+        """The block's interface as JSON-ready data, read from the class alone (``type_name``:
+        the name it is listed under, by default its registered one)."""
         return {
-            "type": cls.type_name,
+            "type": type_name or cls.type_name,
             "class": f"{cls.__module__}.{cls.__qualname__}",
             "doc": cls.doc(),
             "description": inspect.cleandoc(cls.__doc__ or ""),

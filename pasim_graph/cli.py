@@ -69,7 +69,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
 def cmd_blocks(args: argparse.Namespace) -> int:
     blocks = registry.all_blocks()
     if args.json:
-        print(json.dumps([cls.interface() for cls in blocks.values()], indent=2, default=str))
+        print(json.dumps([c.interface(n) for n, c in blocks.items()], indent=2, default=str))
     elif args.markdown:
         print(blocks_markdown(blocks), end="")
     else:

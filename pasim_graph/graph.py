@@ -90,8 +90,12 @@ class Graph:
         return self.params[block].get(param, self.classes[block].params[param].default)
 
     def build(self) -> dict[str, Block]:
-        """Instantiate every block with its resolved parameters."""
-        return {n: self.classes[n](name=n, **self.params[n]) for n in self.order()}
+        """Instantiate every block with its resolved parameters; each carries the type name its
+        graph file gave it (a class registered under two names has two)."""
+        blocks = {n: self.classes[n](name=n, **self.params[n]) for n in self.order()}
+        for n, block in blocks.items():
+            block.__dict__["type_name"] = self.spec.blocks[n].type
+        return blocks
 
     def text(self) -> str:
         return dumps(self.spec)

@@ -159,7 +159,7 @@ def view(spec: GraphSpec, name: str = "graph") -> GraphView:
         if cls is None:
             nodes[block] = NodeView(block, b.type, False)
             continue
-        face = cls.interface()
+        face = cls.interface(b.type)
         ins, outs = cls.inputs, cls.outputs
         nodes[block] = NodeView(
             block,

@@ -14,7 +14,7 @@ from functools import lru_cache
 from importlib.metadata import EntryPoint, entry_points
 from typing import Any
 
-from .block import Block
+from .block import TYPE_NAMES, Block
 
 GROUP = "pasim_graph.blocks"
 #: Entry-point group of command-line subcommands from plugin packages (``pasim waveform``).
@@ -77,7 +77,9 @@ def get(name: str) -> type[Block] | None:
             if not (isinstance(obj, type) and issubclass(obj, Block)):
                 raise TypeError(f"{ep.value} is not a pasim_graph.Block subclass")
             cls = obj
-            cls.type_name = name
+            # The first name a class is loaded under stays its name: a plugin that registers
+            # a library class under a second name does not rename the library's class.
+            TYPE_NAMES.setdefault(cls, name)
         except Exception as exc:  # a broken plugin must not break everyone else
             _errors[name] = f"{type(exc).__name__}: {exc}"
             warnings.warn(

@@ -515,7 +515,7 @@ def palette() -> dict[str, Any]:
     blocks = registry.all_blocks()
     faces = []
     for name, cls in blocks.items():
-        face = json.loads(json.dumps(cls.interface(), default=str))
+        face = json.loads(json.dumps(cls.interface(name), default=str))
         face["group"] = subsystem(name)
         face["per_chunk"] = cls.runs_per_chunk()
         # The engine's own words for each type, whatever fields the type's JSON carries.
