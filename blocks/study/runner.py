@@ -28,7 +28,7 @@ class StudyError(Exception):
     """A study that cannot go on (printed as one line, exit 2)."""
 
 
-def _write_atomic(path: Path, text: str) -> None:
+def write_atomic(path: Path, text: str) -> None:
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     with open(tmp, "w") as f:
         f.write(text)
@@ -77,12 +77,12 @@ def take_folder(out: Path, study: Study, resume: bool) -> dict[str, Any]:
         "runs": {},
         "beamwidths": {},
     }
-    _write_atomic(manifest, json.dumps(state, indent=1))
+    write_atomic(manifest, json.dumps(state, indent=1))
     return state
 
 
 def save(out: Path, state: dict[str, Any]) -> None:
-    _write_atomic(out / MANIFEST, json.dumps(state, indent=1))
+    write_atomic(out / MANIFEST, json.dumps(state, indent=1))
 
 
 def finished(path: Path) -> bool:

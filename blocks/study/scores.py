@@ -463,9 +463,9 @@ def csv_rows(result: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def write_scores(out: Path, result: dict[str, Any]) -> None:
-    from .runner import _write_atomic
+    from .runner import write_atomic
 
-    _write_atomic(out / "scores.json", json.dumps(json_safe(result), indent=1) + "\n")
+    write_atomic(out / "scores.json", json.dumps(json_safe(result), indent=1) + "\n")
     buf = io.StringIO()
     w = csv.DictWriter(
         buf,
@@ -477,4 +477,4 @@ def write_scores(out: Path, result: dict[str, Any]) -> None:
         v = row["value"]
         row["value"] = "" if isinstance(v, float) and not math.isfinite(v) else v
         w.writerow(row)
-    _write_atomic(out / "scores.csv", buf.getvalue())
+    write_atomic(out / "scores.csv", buf.getvalue())
