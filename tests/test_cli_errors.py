@@ -500,7 +500,9 @@ def test_build_prints_no_setuptools_warnings(tmp_path):
     (wheel,) = wheels.glob("pasim_graph-*.whl")
     import zipfile
 
-    assert "pasim_blocks/data/KLBB20160601_150025_V06" in zipfile.ZipFile(wheel).namelist()
+    names = zipfile.ZipFile(wheel).namelist()
+    assert "pasim_blocks/data/KLBB20160601_150025_V06" in names
+    assert "pasim_blocks/study/templates/report.html.j2" in names  # the study report's
 
 
 def test_a_reader_that_stops_early_gets_no_traceback():

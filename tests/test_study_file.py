@@ -133,3 +133,19 @@ def test_a_fifo_is_refused_as_what_it_is(tmp_path, capsys):
     os.mkfifo(fifo)
     code, err = pasim(capsys, "study", str(fifo), "--check")
     assert code == 2 and "not a regular file" in err
+
+
+def test_a_wide_stand_in_beam_reads_the_truth_wider():
+    # A 2 m array's sidelobe-free stand-in (5 deg) is cut at 2.5 beamwidths: the truth must be
+    # read at least that far past the sector (the paper study's 2 m CPPAR stopped on it).
+    from pasim_blocks.study.model import read_study
+    from pasim_blocks.study.plan import plan_runs
+
+    runs, problems = plan_runs(read_study(Path(__file__).parent / "fixtures/study/tiny_study.yaml"))
+    assert problems == []
+    (free,) = [r for r in runs if r.kind == "sidelobe_free" and r.system == "narrow"]
+    for bw in (1.0, 5.2):
+        g = free.graph(bw)
+        (antenna,) = free.antennas
+        support = g.value(antenna, "support_deg")
+        assert all(g.value(t, "margin_deg") >= support for t in g.by_role("truth"))

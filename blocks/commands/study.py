@@ -32,7 +32,9 @@ class StudyCommand:
     help = "run a trade study (systems x cases x seeds x sweeps) and score it with a budget"
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("study", metavar="STUDY.yaml")
+        parser.add_argument(
+            "study", metavar="STUDY.yaml", help="the study file (or, with --report-only, its DIR)"
+        )
         parser.add_argument("--out", metavar="DIR", help="the study's folder (required to run)")
         parser.add_argument("--resume", action="store_true", help="complete a stopped study in DIR")
         where = parser.add_mutually_exclusive_group()
@@ -41,6 +43,12 @@ class StudyCommand:
         parser.add_argument("--progress", action="store_true", help="show each run's progress")
         parser.add_argument(
             "--check", action="store_true", help="validate the study and list its runs; run none"
+        )
+        parser.add_argument(
+            "--report-only",
+            action="store_true",
+            help="rebuild DIR/report.html from a study's folder (no run): pasim study DIR "
+            "--report-only",
         )
 
     def run(self, args: argparse.Namespace) -> int:
@@ -53,6 +61,8 @@ class StudyCommand:
         )
         from pasim_graph.executor import BlockError
 
+        if args.report_only:
+            return self.report_only(args)
         StudyProblems = _problems_class()
         from pasim_graph.interrupt import StopMessage, Stopped, stop_on_signals
         from pasim_graph.store import StoreError, StoreExistsError
@@ -124,6 +134,28 @@ class StudyCommand:
             f"{report['kept']} kept, {report['seconds']:.1f} s",
             file=sys.stderr,
         )
+        from ..study.report import write_report
+
+        print(f"wrote {write_report(out)}", file=sys.stderr)
+        return 0
+
+    def report_only(self, args: argparse.Namespace) -> int:
+        from pasim_graph.cli import UserError
+
+        from ..study.report import write_report
+        from ..study.runner import StudyError
+
+        folder = Path(args.out or args.study)
+        if not folder.is_dir():
+            raise UserError(
+                f"{folder}: not a folder; --report-only takes a study's folder "
+                "(pasim study DIR --report-only)"
+            )
+        try:
+            path = write_report(folder)
+        except StudyError as exc:
+            raise UserError(str(exc)) from None
+        print(f"wrote {path}", file=sys.stderr)
         return 0
 
 

@@ -58,11 +58,23 @@ class Run:
     def graph(self, beamwidth_deg: float | None = None) -> Graph:
         overrides = dict(self.overrides)
         bw = beamwidth_deg or PLACEHOLDER_BEAMWIDTH_DEG
+        support = min(45.0, max(2.0, 2.5 * bw))
         for name in self.antennas:
             overrides[f"{name}.beamwidth_deg"] = bw
             # The Gaussian is cut at support_deg: 2.5 beamwidths is -75 dB one-way.
-            overrides[f"{name}.support_deg"] = min(45.0, max(2.0, 2.5 * bw))
-        return validate(self.spec, overrides)
+            overrides[f"{name}.support_deg"] = support
+        graph = validate(self.spec, overrides)
+        if not self.antennas:
+            return graph
+        # A wide stand-in beam (a 2 m array's 5 deg) reaches past the truth's default
+        # margin: the truth is read that much wider.
+        wider = {
+            f"{name}.margin_deg": support + 1.0
+            for name in graph.by_role("truth")
+            if "margin_deg" in graph.classes[name].params
+            and float(graph.value(name, "margin_deg")) < support + 1.0
+        }
+        return validate(self.spec, overrides | wider) if wider else graph
 
 
 def _with_params(graph: Graph, test: Any, value: Any) -> dict[str, Any]:

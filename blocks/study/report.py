@@ -1,0 +1,563 @@
+"""``DIR/report.html``: a study's one self-contained page for a design review.
+
+Built from the study's folder alone (``pasim-study.json``, ``scores.json`` and the stores under
+``runs/``), so ``pasim study DIR --report-only`` rebuilds it without rerunning anything. Every
+figure is drawn with matplotlib's Agg canvas and embedded as a PNG data URI; the page loads no
+script, font or image from anywhere. The HTML comes from a jinja2 template
+(``templates/report.html.j2``, autoescaped).
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .runner import MANIFEST, StudyError, _write_atomic
+from .scores import FIELDS
+
+REPORT = "report.html"
+TEMPLATES = Path(__file__).parent / "templates"
+PARTS = ("main_lobe", "range", "sidelobes", "estimator_noise")
+PART_LABELS = {
+    "main_lobe": "main lobe (beam smoothing)",
+    "range": "range response",
+    "sidelobes": "sidelobes",
+    "estimator_noise": "estimator noise",
+}
+PART_COLOURS = {
+    "main_lobe": "#1f77b4",
+    "range": "#9467bd",
+    "sidelobes": "#d62728",
+    "estimator_noise": "#ff7f0e",
+}
+PART_TEXT = {
+    "main_lobe": (
+        "the weather averaged over the main lobe of a sidelobe-free beam of the system's own "
+        "beamwidth, with an ideal short pulse, against the raw gates: bought down by a "
+        "narrower beam (a larger aperture), nothing else"
+    ),
+    "range": (
+        "the pulse and matched filter's range response against that short pulse: bought down "
+        "by a shorter pulse or a wider bandwidth (pulse compression)"
+    ),
+    "sidelobes": (
+        "the system's noise-free level against the sidelobe-free beam of the same width: "
+        "weather leaking in through the sidelobes, bought down by a lower sidelobe level "
+        "(taper, element errors, phase-shifter bits)"
+    ),
+    "estimator_noise": (
+        "the estimate against the system's own noise-free level: the statistics of a finite "
+        "number of pulses and receiver noise, bought down by more pulses (a slower scan) or "
+        "more sensitivity"
+    ),
+    "bias": (
+        "the mean error: calibration, cross-polar coupling and the log of an averaged power; "
+        "it is not part of the spread and is shown beside it"
+    ),
+}
+# A moment's truth-against-estimate histogram: bins over the style's limits.
+HIST_BINS = 60
+
+
+@dataclass
+class Figure:
+    title: str
+    uri: str
+    alt: str
+    caption: str = ""
+
+
+@dataclass
+class CaseReport:
+    name: str
+    points: list[str]
+    table: list[dict[str, Any]] = field(default_factory=list)
+    rankings: list[dict[str, Any]] = field(default_factory=list)
+    budget_rows: list[dict[str, Any]] = field(default_factory=list)
+    figures: dict[str, list[Figure]] = field(default_factory=dict)
+
+
+def _canvas(width: float, height: float) -> Any:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure as MplFigure
+
+    fig = MplFigure(figsize=(width, height), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _uri(fig: Any, dpi: int = 72) -> str:
+    from pasim_graph.plot import png_bytes
+
+    return "data:image/png;base64," + base64.b64encode(png_bytes(fig, dpi)).decode("ascii")
+
+
+def _fmt(x: Any, digits: int = 3) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "n/a"
+    if isinstance(x, int):
+        return f"{x:,}"
+    return f"{x:.{digits}g}"
+
+
+def _ci(ci: Any) -> str:
+    if not ci or any(v is None for v in ci):
+        return "[n/a]"
+    return f"[{_fmt(ci[0])}, {_fmt(ci[1])}]"
+
+
+def _point_value(point: str) -> dict[str, Any]:
+    """``"a.b=3,c.d=x"`` -> {"a.b": 3.0, "c.d": "x"} (numbers as floats)."""
+    out: dict[str, Any] = {}
+    if point == "-":
+        return out
+    for part in point.split(","):
+        key, _, value = part.partition("=")
+        try:
+            out[key] = float(value)
+        except ValueError:
+            out[key] = value
+    return out
+
+
+def _store(out: Path, system: str, case: str, point: str, seed: int) -> Path:
+    return out / "runs" / system / case / point / f"estimate-seed{seed}.zarr"
+
+
+def load(out: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The manifest and scores of a study folder (StudyError when either is missing)."""
+    manifest, scores = out / MANIFEST, out / "scores.json"
+    if not manifest.is_file():
+        raise StudyError(f"{out}: not a study folder ({MANIFEST} missing)")
+    if not scores.is_file():
+        raise StudyError(f"{out}: no scores.json yet (no system has all its runs finished)")
+    try:
+        return json.loads(manifest.read_text()), json.loads(scores.read_text())
+    except (OSError, ValueError) as exc:
+        raise StudyError(f"{out}: unreadable study files ({exc})") from None
+
+
+def _systems(scores: dict[str, Any]) -> list[str]:
+    return [k for k in scores if not k.startswith("_")]
+
+
+def _summary(scores: dict[str, Any], systems: list[str], case: str) -> list[dict[str, Any]]:
+    """One row per moment and system point: every number of the summary table."""
+    rows = []
+    for name in FIELDS:
+        cells = []
+        req = None
+        for system in systems:
+            for point, fields in scores[system].get(case, {}).items():
+                s = fields.get(name)
+                if s is None:
+                    continue
+                req = req or (s["requirement_bias"], s["requirement_std"], s.get("units", ""))
+                ref = s.get("reference") or {}
+                com = s.get("common") or {}
+                cells.append(
+                    {
+                        "system": system if point == "-" else f"{system} ({point})",
+                        "std": _fmt(s["std"]),
+                        "std_ci": _ci(s["std_ci"]),
+                        "robust": _fmt(s["robust_std"]),
+                        "bias": _fmt(s["bias"]),
+                        "bias_ci": _ci(s["bias_ci"]),
+                        "count": _fmt(s["count"]),
+                        "pass": bool(s["pass"]),
+                        "reference_std": _fmt(ref.get("std")),
+                        "own_std": _fmt((s.get("own_expected") or {}).get("std")),
+                        "common_std": _fmt(com.get("std")),
+                        "common_count": _fmt(com.get("count")),
+                        "common_pass": com.get("pass"),
+                    }
+                )
+        if cells and req is not None:
+            rows.append(
+                {
+                    "field": name,
+                    "req_bias": req[0],
+                    "req_std": req[1],
+                    "units": req[2],
+                    "cells": cells,
+                }
+            )
+    return rows
+
+
+def _rankings(scores: dict[str, Any], case: str) -> list[dict[str, Any]]:
+    out = []
+    for name, groups in scores["_study"].get("rankings", {}).get(case, {}).items():
+        if not groups:
+            continue
+        if len(groups) == 1:
+            text = (
+                f"no ranking: the intervals of {', '.join(groups[0])} overlap"
+                if len(groups[0]) > 1
+                else f"one system ({groups[0][0]})"
+            )
+        else:
+            parts = [
+                " = ".join(g) + (" (intervals overlap: not ranked)" if len(g) > 1 else "")
+                for g in groups
+            ]
+            text = " < ".join(parts)
+        out.append({"field": name, "text": text, "ranked": len(groups) > 1})
+    return out
+
+
+def _budget_rows(scores: dict[str, Any], systems: list[str], case: str) -> list[dict[str, Any]]:
+    rows = []
+    for system in systems:
+        for point, fields in scores[system].get(case, {}).items():
+            for name in FIELDS:
+                b = (fields.get(name) or {}).get("budget")
+                if not b or "total" not in b:
+                    continue
+                rows.append(
+                    {
+                        "system": system if point == "-" else f"{system} ({point})",
+                        "field": name,
+                        "units": fields[name].get("units", ""),
+                        **{k: _fmt(b.get(k)) for k in (*PARTS, "bias", "total", "quadrature_sum")},
+                        "count": _fmt(b.get("count")),
+                        "adds_up": b.get("adds_up"),
+                        "note": b.get("note", ""),
+                        "largest": max(PARTS, key=lambda k: b.get(k) or 0.0),
+                    }
+                )
+    return rows
+
+
+def budget_figure(scores: dict[str, Any], systems: list[str], case: str) -> Figure | None:
+    """Stacked bars per system and moment: each part's variance, the total's drawn over."""
+    bars: dict[str, list[tuple[str, dict[str, Any]]]] = {}
+    for system in systems:
+        for point, fields in scores[system].get(case, {}).items():
+            label = system if point == "-" else f"{system}\n{point}"
+            for name in FIELDS:
+                b = (fields.get(name) or {}).get("budget")
+                if b and "total" in b:
+                    bars.setdefault(name, []).append((label, b))
+    if not bars:
+        return None
+    names = [n for n in FIELDS if n in bars]
+    ncol = 3
+    nrow = math.ceil(len(names) / ncol)
+    width = max(3, len(max(bars.values(), key=len)))
+    fig = _canvas(min(16.0, 1.6 * width * ncol), 3.4 * nrow)
+    axes = fig.subplots(nrow, ncol, squeeze=False).ravel()
+    for ax, name in zip(axes, names, strict=False):
+        units = (scores[systems[0]].get(case, {}).get("-", {}).get(name) or {}).get("units", "")
+        x = np.arange(len(bars[name]))
+        bottom = np.zeros(x.size)
+        for part in PARTS:
+            v = np.array([(b.get(part) or 0.0) ** 2 for _, b in bars[name]])
+            ax.bar(
+                x, v, bottom=bottom, color=PART_COLOURS[part], label=PART_LABELS[part], width=0.6
+            )
+            bottom += v
+        total = np.array([(b.get("total") or 0.0) ** 2 for _, b in bars[name]])
+        ax.scatter(x, total, marker="_", s=600, color="black", zorder=3, label="total (measured)")
+        ax.set_xticks(x, [lab for lab, _ in bars[name]], fontsize=8)
+        ax.set_title(f"{name}: error variance against the raw gates")
+        ax.set_ylabel(f"variance ({units})²" if units not in ("", "1", "unitless") else "variance")
+    for ax in axes[len(names) :]:
+        ax.set_visible(False)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize=9)
+    return Figure(
+        "Error budget",
+        _uri(fig),
+        f"stacked error-variance budget of every system for {', '.join(names)}",
+        "Each bar stacks the squares of the parts (their variances add when the parts are "
+        "uncorrelated); the black tick is the measured total variance.",
+    )
+
+
+def _open(path: Path) -> tuple[Any, dict[str, Any]] | None:
+    from pasim_graph.store import open_sweep
+
+    try:
+        return open_sweep(path)
+    except Exception:  # a store that cannot be read: its panels are left out, named
+        return None
+
+
+def _limits(sweeps: list[Any], name: str) -> tuple[float, float]:
+    """Shared colour limits of a moment: the style's, velocity on the widest Nyquist interval,
+    phi_DP on the span of the truth."""
+    from pasim_graph.plot import STYLES
+
+    style = STYLES[name]
+    if name == "VRADH":
+        ny = [
+            float(np.nanmax(s["nyquist_velocity"].values))
+            for s in sweeps
+            if "nyquist_velocity" in s
+        ]
+        ny = [v for v in ny if math.isfinite(v) and v > 0]
+        if ny:
+            return -max(ny), max(ny)
+    if name == "PHIDP":
+        vals = [
+            np.asarray(s[f"truth_{name}"].values, float) for s in sweeps if f"truth_{name}" in s
+        ]
+        vals = [v[np.isfinite(v)] for v in vals]
+        allv = np.concatenate(vals) if vals else np.array([])
+        if allv.size:
+            lo, hi = np.percentile(allv, [1, 99])
+            lo, hi = 10 * math.floor(lo / 10), 10 * math.ceil(hi / 10)
+            if hi > lo:
+                return float(lo), float(hi)
+    return style.vmin, style.vmax
+
+
+def _extent(sweep: Any, x: np.ndarray, y: np.ndarray) -> list[float]:
+    has = np.zeros((x.shape[0] - 1, x.shape[1] - 1), bool)
+    for v in sweep.data_vars:
+        if str(v).startswith("truth_"):
+            has |= np.isfinite(np.asarray(sweep[v].values, dtype=np.float64))
+    if not has.any():
+        return [float(x.min()), float(x.max()), float(y.min()), float(y.max())]
+    rows, cols = np.nonzero(has)
+    xs = x[rows.min() : rows.max() + 2, cols.min() : cols.max() + 2]
+    ys = y[rows.min() : rows.max() + 2, cols.min() : cols.max() + 2]
+    return [float(xs.min()), float(xs.max()), float(ys.min()), float(ys.max())]
+
+
+def ppi_figure(name: str, panels: list[tuple[str, Any]]) -> Figure:
+    """Truth beside each system's estimate of one moment, on shared limits."""
+    import cmweather  # noqa: F401  (registers the weather-radar colour maps)
+
+    from pasim_graph.plot import STYLES, ppi_mesh
+
+    style = STYLES[name]
+    vmin, vmax = _limits([s for _, s in panels], name)
+    truth_sweep = panels[0][1]
+    cols = [("truth", truth_sweep, f"truth_{name}")] + [(n, s, name) for n, s in panels]
+    fig = _canvas(3.3 * len(cols) + 0.8, 3.6)
+    axes = fig.subplots(1, len(cols), squeeze=False)[0]
+    extent = None
+    mesh = None
+    for ax, (title, sweep, var) in zip(axes, cols, strict=True):
+        x, y = ppi_mesh(sweep)
+        extent = extent or _extent(truth_sweep, *ppi_mesh(truth_sweep))
+        ax.set_facecolor("#ececec")
+        if var in sweep:
+            data = np.ma.masked_invalid(np.asarray(sweep[var].values, dtype=np.float64))
+            mesh = ax.pcolormesh(
+                x, y, data, shading="flat", cmap=style.cmap, vmin=vmin, vmax=vmax, rasterized=True
+            )
+        else:
+            ax.text(0.5, 0.5, f"{var}\nnot in the store", ha="center", transform=ax.transAxes)
+        # Zoomed to the truth's weather, a km as long east as north (as pasim plot does).
+        ax.ignore_existing_data_limits = True
+        ax.update_datalim([(extent[0], extent[2]), (extent[1], extent[3])])
+        ax.autoscale_view(tight=True)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(title, fontsize=10)
+        ax.set_xlabel("km east", fontsize=8)
+        ax.tick_params(labelsize=7)
+    axes[0].set_ylabel("km north", fontsize=8)
+    if mesh is not None:
+        fig.colorbar(mesh, ax=list(axes), label=f"{name} ({style.units})", shrink=0.9)
+    return Figure(
+        f"{name}: {style.label}",
+        _uri(fig),
+        f"PPI of {name}: truth and every system's estimate",
+        f"Shared limits {vmin:g} to {vmax:g} {style.units}; grey: no data.",
+    )
+
+
+def histogram_figure(panels: list[tuple[str, Any]]) -> Figure:
+    """Truth against estimate on each system's scored gates, one row per moment."""
+    from matplotlib.colors import LogNorm
+
+    from pasim_graph.plot import STYLES
+
+    names = [n for n in FIELDS if any(f"error_{n}" in s for _, s in panels)]
+    fig = _canvas(2.9 * len(panels) + 0.6, 2.6 * len(names))
+    axes = fig.subplots(len(names), len(panels), squeeze=False)
+    for row, name in zip(axes, names, strict=True):
+        lo, hi = _limits([s for _, s in panels], name)
+        if name == "RHOHV":
+            lo, hi = 0.8, 1.0
+        for ax, (system, sweep) in zip(row, panels, strict=True):
+            err, truth = sweep.get(f"error_{name}"), sweep.get(f"truth_{name}")
+            est = sweep.get(name)
+            ax.tick_params(labelsize=7)
+            if err is None or truth is None or est is None:
+                ax.set_visible(False)
+                continue
+            e = np.asarray(est.values, dtype=np.float64)
+            t = np.asarray(truth.values, dtype=np.float64)[:, : e.shape[1]]
+            ok = np.isfinite(np.asarray(err.values, dtype=np.float64)) & np.isfinite(e)
+            ok &= np.isfinite(t)
+            if ok.sum() > 0:
+                ax.hist2d(
+                    t[ok],
+                    e[ok],
+                    bins=HIST_BINS,
+                    range=[[lo, hi], [lo, hi]],
+                    norm=LogNorm(),
+                    cmap="viridis",
+                    rasterized=True,
+                )
+            ax.plot([lo, hi], [lo, hi], color="red", lw=0.8)
+            ax.set_xlim(lo, hi)
+            ax.set_ylim(lo, hi)
+            ax.set_title(f"{system}: {name} ({int(ok.sum()):,} gates)", fontsize=9)
+            ax.set_xlabel(f"truth ({STYLES[name].units})", fontsize=8)
+        row[0].set_ylabel("estimate", fontsize=8)
+    return Figure(
+        "Truth against estimate",
+        _uri(fig),
+        "two-dimensional histograms of truth against estimate for every system and moment",
+        "Scored gates only, counts on a log scale; the red line is estimate = truth.",
+    )
+
+
+def sweep_figure(scores: dict[str, Any], system: str, case: str) -> Figure | None:
+    """Each moment's std against the swept parameter, with intervals and requirement."""
+    points = {p: f for p, f in scores[system].get(case, {}).items() if p != "-"}
+    if len(points) < 2:
+        return None
+    params = _point_value(next(iter(points)))
+    xkey = next((k for k, v in params.items() if isinstance(v, float)), None)
+    if xkey is None:
+        return None
+    others = [k for k in params if k != xkey]
+    names = [n for n in FIELDS if any(n in f for f in points.values())]
+    ncol = 3
+    nrow = math.ceil(len(names) / ncol)
+    fig = _canvas(14.0, 3.2 * nrow)
+    axes = fig.subplots(nrow, ncol, squeeze=False).ravel()
+    for ax, name in zip(axes, names, strict=False):
+        series: dict[str, list[tuple[float, dict[str, Any]]]] = {}
+        for point, fields in points.items():
+            if name not in fields:
+                continue
+            pv = _point_value(point)
+            label = ",".join(f"{k}={pv[k]}" for k in others) or "std"
+            series.setdefault(label, []).append((float(pv[xkey]), fields[name]))
+        req = None
+        for label, pts in series.items():
+            pts.sort(key=lambda p: p[0])
+            xs = np.array([p[0] for p in pts])
+            ys = np.array([p[1]["std"] if p[1]["std"] is not None else np.nan for p in pts])
+            lo = np.array([(p[1]["std_ci"] or [None])[0] or np.nan for p in pts])
+            hi = np.array([(p[1]["std_ci"] or [None, None])[1] or np.nan for p in pts])
+            yerr = np.vstack([np.clip(ys - lo, 0, None), np.clip(hi - ys, 0, None)])
+            ax.errorbar(xs, ys, yerr=np.nan_to_num(yerr), marker="o", capsize=3, label=label)
+            req = pts[0][1]["requirement_std"]
+            units = pts[0][1].get("units", "")
+        if req is not None:
+            ax.axhline(req, color="red", ls="--", lw=1, label=f"requirement {req:g}")
+            ax.set_ylabel(f"std against raw ({units})", fontsize=8)
+        ax.set_xlabel(xkey, fontsize=8)
+        ax.set_title(name, fontsize=10)
+        ax.legend(fontsize=7)
+    for ax in axes[len(names) :]:
+        ax.set_visible(False)
+    return Figure(
+        f"{system}: std against {xkey}",
+        _uri(fig),
+        f"design curves of {system}: each moment's std against {xkey}",
+        "95 % intervals as error bars; the dashed red line is the NEXRAD requirement.",
+    )
+
+
+def build(out: Path) -> dict[str, Any]:
+    """Everything the template shows, figures drawn."""
+    from pasim_graph import __version__
+
+    manifest, scores = load(out)
+    meta = scores.get("_study", {})
+    systems = _systems(scores)
+    seeds = meta.get("seeds") or [0]
+    cases: dict[str, CaseReport] = {}
+    notes: list[str] = list(meta.get("notes", []))
+    graphs: dict[str, str] = {}
+    versions: set[str] = set()
+    for system in systems:
+        for case in scores[system]:
+            cases.setdefault(case, CaseReport(case, []))
+    for case, rep in cases.items():
+        rep.table = _summary(scores, systems, case)
+        rep.rankings = _rankings(scores, case)
+        rep.budget_rows = _budget_rows(scores, systems, case)
+        fig = budget_figure(scores, systems, case)
+        rep.figures["budget"] = [fig] if fig else []
+        panels: list[tuple[str, Any]] = []
+        for system in systems:
+            pts = list(scores[system].get(case, {}))
+            if not pts:
+                continue
+            point = "-" if "-" in pts else pts[0]
+            path = _store(out, system, case, point, seeds[0])
+            opened = _open(path)
+            if opened is None:
+                notes.append(f"{path.relative_to(out)}: unreadable; its panels are left out")
+                continue
+            sweep, root = opened
+            graphs.setdefault(system, str(root.get("graph", "")))
+            versions.add(str(root.get("pasim_graph_version", "?")))
+            panels.append((system if point == "-" else f"{system} ({point})", sweep))
+        rep.figures["ppi"] = [ppi_figure(n, panels) for n in FIELDS if panels] if panels else []
+        rep.figures["hist"] = [histogram_figure(panels)] if panels else []
+        rep.figures["sweeps"] = [
+            f for f in (sweep_figure(scores, s, case) for s in systems) if f is not None
+        ]
+    runs = [
+        {"key": k, "kind": v.get("kind", ""), "seconds": v.get("seconds")}
+        for k, v in manifest.get("runs", {}).items()
+    ]
+    return {
+        "title": meta.get("title") or manifest.get("study_file", "study"),
+        "study_file": manifest.get("study_file", ""),
+        "study_text": manifest.get("study_text", ""),
+        "reference": meta.get("reference_system", ""),
+        "seeds": seeds,
+        "systems": systems,
+        "cases": list(cases.values()),
+        "parts": [(k, PART_LABELS.get(k, k), PART_TEXT[k]) for k in (*PARTS, "bias")],
+        "colours": PART_COLOURS,
+        "notes": notes,
+        "graphs": graphs,
+        "run_versions": sorted(versions),
+        "version": __version__,
+        "runs": runs,
+        "total_seconds": sum(r["seconds"] or 0.0 for r in runs),
+        "beamwidths": meta.get("beamwidths_deg", {}),
+        "written": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+    }
+
+
+def render(context: dict[str, Any]) -> str:
+    import jinja2
+
+    env = jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(TEMPLATES)),
+        autoescape=True,
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
+    return env.get_template("report.html.j2").render(**context)
+
+
+def write_report(out: str | Path) -> Path:
+    """Draw and write ``out/report.html`` from a study folder; returns its path."""
+    out = Path(out)
+    html = render(build(out))
+    path = out / REPORT
+    _write_atomic(path, html)
+    return path
