@@ -283,6 +283,13 @@ def cmd_tradeoff(args: argparse.Namespace) -> int:
 def cmd_score(args: argparse.Namespace) -> int:
     from .store import NotAStoreError, open_sweep, summarize
 
+    if args.against or args.by:
+        # Against another store or per azimuth: the radar scoring is the block library's
+        # (its `compare` command), reached through the plugin registry.
+        command = registry.commands().get("compare")
+        if command is None or not hasattr(command, "score"):
+            raise UserError("--against and --by need the block library's `compare` command")
+        return int(command.score(args))
     try:
         sweep, _ = open_sweep(args.store)
     except NotAStoreError as exc:
@@ -440,6 +447,8 @@ def parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     sc = sub.add_parser("score", help="print the error statistics stored in a run")
     sc.add_argument("store", help="a store written by `pasim run`")
     sc.add_argument("--json", action="store_true", help="print the scores as JSON")
+    sc.add_argument("--against", metavar="REF.zarr", help="errors against another store's levels")
+    sc.add_argument("--by", metavar="azimuth[:BIN]", help="a per-azimuth profile (BIN in deg)")
     sc.set_defaults(func=cmd_score)
     _add_studio_commands(sub)
     if _may_need_plugins(argv, set(sub.choices)):
