@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from .runner import MANIFEST, StudyError, _write_atomic
+from .runner import MANIFEST, StudyError, write_atomic
 from .scores import FIELDS
 
 REPORT = "report.html"
@@ -559,5 +559,5 @@ def write_report(out: str | Path) -> Path:
     out = Path(out)
     html = render(build(out))
     path = out / REPORT
-    _write_atomic(path, html)
+    write_atomic(path, html)
     return path
