@@ -20,7 +20,9 @@ from pasim_graph.studio.documents import RequestError
 from .conftest import FIXTURES, GRAPHS, ROOT
 from .test_studio_http import Client
 
-FILES = sorted(GRAPHS.glob("*.yaml"))
+FILES = sorted(
+    p for p in GRAPHS.glob("*.yaml") if not p.name.endswith("_study.yaml")
+)  # studies: not graphs
 
 
 def generic():
@@ -288,3 +290,13 @@ def test_every_broken_fixture_opens_with_its_problems():
         assert g["validation"]["valid"] is False and g["validation"]["problems"], rel
         # Read-only exactly when the file format itself cannot read the whole file.
         assert g["editable"] == (not read(FIXTURES / "broken" / rel).problems), rel
+
+
+def test_study_files_are_not_listed_as_graphs(tmp_path):
+    """A study file (format pasim-study/1) beside graphs is not offered as a broken graph."""
+    shutil.copy(GRAPHS / "generic_radar.yaml", tmp_path / "generic_radar.yaml")
+    shutil.copy(GRAPHS / "paper_study.yaml", tmp_path / "paper_study.yaml")
+    (tmp_path / "notes.yaml").write_text("title: not a graph, no format line\n")
+    listed = docs.Folder(tmp_path).graphs()
+    assert "generic_radar.yaml" in listed and "paper_study.yaml" not in listed
+    assert "notes.yaml" in listed  # no format said: offered, and the editor says what is wrong

@@ -386,7 +386,9 @@ def test_an_internal_error_is_json_without_a_traceback(client, monkeypatch):
 # -- what is written ---------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("name", sorted(p.name for p in GRAPHS.glob("*.yaml")))
+@pytest.mark.parametrize(
+    "name", sorted(p.name for p in GRAPHS.glob("*.yaml") if not p.name.endswith("_study.yaml"))
+)
 def test_saving_an_unchanged_graph_changes_no_byte(folder, client, name):
     before = (folder / name).read_bytes()
     status, g = client.get(f"/api/graph?path={name}")

@@ -46,6 +46,22 @@ from ..graphfile import (
 )
 
 GRAPH_SUFFIXES = (".yaml", ".yml")
+
+
+def _other_format(path: Path) -> bool:
+    """The file declares another document format than a graph's (``format: pasim-study/1``)."""
+    try:
+        with path.open("rb") as f:
+            head = f.read(4096).decode("utf-8", "replace")
+    except OSError:
+        return False
+    for line in head.splitlines():
+        if line.startswith("format:"):
+            value = line.partition(":")[2].strip().strip("'\"")
+            return not value.startswith("pasim-graph/")
+    return False
+
+
 LAYOUT_SUFFIX = ".layout.json"
 LAYOUT_FORMAT = "pasim-layout/1"
 
@@ -129,8 +145,9 @@ class Folder:
             for f in filenames:
                 if f.endswith(GRAPH_SUFFIXES):
                     full = Path(dirpath) / f
-                    # Symlinks out of the folder are not listed (and refused if asked for).
-                    if full.resolve().is_relative_to(self.root):
+                    # Symlinks out of the folder are not listed (and refused if asked for);
+                    # other YAML documents (a study file) are not graphs.
+                    if full.resolve().is_relative_to(self.root) and not _other_format(full):
                         out.append(full.relative_to(self.root).as_posix())
                 if len(out) >= limit:
                     return out
