@@ -21,7 +21,7 @@ def test_ruff(args):
     assert res.returncode == 0, res.stdout + res.stderr
 
 
-def test_mypy_engine():
+def test_mypy_engine_and_block_library():
     res = subprocess.run([sys.executable, "-m", "mypy"], cwd=ROOT, capture_output=True, text=True)
     assert res.returncode == 0, res.stdout + res.stderr
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar, TypeVar, cast
 
 import numpy as np
 import xarray as xr
@@ -28,6 +28,8 @@ from .base import (
     pattern_dataset,
     two_way_solid_angle,
 )
+
+_A = TypeVar("_A", bound="ArrayAntenna")
 
 
 class ArrayAntenna(Block):
@@ -56,7 +58,15 @@ class ArrayAntenna(Block):
     errors_seed = ERRORS_SEED
     calibration = CALIBRATION
 
-    transient = ("_draws",)
+    transient: ClassVar[tuple[str, ...]] = ("_draws",)
+
+    # Set by each array's setup (its pattern grid, broadside gain and two-way solid angles per
+    # polarisation), read by the code here.
+    d_az: np.ndarray
+    d_el: np.ndarray
+    gain_db: float
+    omega: dict[str, float]
+    _ideal: ArrayAntenna | None
 
     @classmethod
     def warm_up(cls) -> None:
@@ -187,7 +197,7 @@ class ArrayAntenna(Block):
         )
 
 
-def ideal_copy(block: ArrayAntenna) -> ArrayAntenna:
+def ideal_copy(block: _A) -> _A:
     """The same array with ideal channel electronics (the design the errors perturb), built
     once per block."""
     from .electronics import IDEAL
@@ -196,4 +206,4 @@ def ideal_copy(block: ArrayAntenna) -> ArrayAntenna:
         return block
     if getattr(block, "_ideal", None) is None:
         block._ideal = type(block)(name=block.name, **{**block.p, **IDEAL})
-    return block._ideal
+    return cast(_A, block._ideal)

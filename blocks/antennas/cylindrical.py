@@ -113,6 +113,7 @@ class CylindricalArray(ArrayAntenna):
     )
 
     transient = ("_memo", "_draws")
+    directivity_db: dict[str, float]  # per polarisation, set with the broadside figures
 
     @classmethod
     def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:

@@ -98,7 +98,7 @@ class CompareCommand:
         if args.json:
             print(json.dumps(_json_safe(result), indent=2))
             return 0
-        rows = [
+        table_rows = [
             [
                 name,
                 _num(s["bias"]),
@@ -110,7 +110,9 @@ class CompareCommand:
             ]
             for name, s in result.items()
         ]
-        print(_table(["moment", "bias", "std", "robust", "count", "req bias/std", "pass"], rows))
+        print(
+            _table(["moment", "bias", "std", "robust", "count", "req bias/std", "pass"], table_rows)
+        )
         print(f"errors against {args.against} on {args.store}'s scored gates")
         return 0
 

@@ -128,7 +128,7 @@ def measure(
             "beam_azimuth_deg": float(az_b % 360.0),
             "beam_elevation_deg": float(el_b),
         }
-    result["cuts"] = {"azimuth": (d, az_cut), "elevation": (d_el, el_cut)}
+    result["cuts"] = {"azimuth": (d, az_cut), "elevation": (d_el, el_cut)}  # type: ignore[assignment]
     return result
 
 

@@ -121,7 +121,7 @@ def _doppler_on_grid(
             width.first_gate_m,
             width.gate_step_m,
         )
-        if same_gates and mean is not None:
+        if same_gates and mean is not None and vel is not None:
             v = vel.decode().astype(np.float64)
             inside = owner >= 0
             d = np.zeros_like(v)

@@ -144,9 +144,9 @@ class NexradTruth(Block):
                 stacklevel=2,
             )
         if "WRADH" not in sweep.fields or "VRADH" not in sweep.fields:
-            missing = [n for n in ("VRADH", "WRADH") if n not in sweep.fields]
+            doppler = [n for n in ("VRADH", "WRADH") if n not in sweep.fields]
             warnings.warn(
-                f"truth {sweep.source}: no {' or '.join(missing)}; the weather channel takes "
+                f"truth {sweep.source}: no {' or '.join(doppler)}; the weather channel takes "
                 "velocity 0 m/s and width 1 m/s there, and they are not scored",
                 RunNote,
                 stacklevel=2,

@@ -211,7 +211,7 @@ class WeatherChannel(Block):
         # What depends only on the truth and the range response is prepared once and reused
         # by every chunk (and, with threads, by every thread): a pure function of the inputs,
         # memoised.
-        key = (id(truth), id(response), k0, prt, lam, pulses, method, dtype)
+        key: tuple[Any, ...] = (id(truth), id(response), k0, prt, lam, pulses, method, dtype)
         key += (self.p["range_support_db"], self.p["drops_per_cell"])
         if self._prepared is None or self._prepared[0] != key:
             ranges = range_model(
@@ -240,7 +240,7 @@ class WeatherChannel(Block):
         for i, beam in enumerate(chunk.beams):
             az_b = float(beams["azimuth"].values[i])
             el_b = float(beams["elevation"].values[i])
-            delta = circular_difference(az_truth, az_b, 360.0)
+            delta = circular_difference(az_truth, np.asarray(az_b), 360.0)
             near = np.flatnonzero(np.abs(delta) <= support)
             profile = azimuth_profile(pattern["power"].values[i], d_el, el_b)
             omega = cell_solid_angles(profile, d_az, delta[near], width_deg)

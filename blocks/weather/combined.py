@@ -39,7 +39,7 @@ def gate_spectra(
     pad, terms = ranges.pad, ranges.power.shape[0]
     u = cells.u[near][:, gsel]
     stacked = [p * u**k if k else p for k in range(terms) for p in products]
-    weights = np.stack(stacked).transpose(2, 0, 1).astype(dtype)  # g x TP x J
+    weights: np.ndarray = np.stack(stacked).transpose(2, 0, 1).astype(dtype)  # g x TP x J
     code = cells.code[near][:, gsel].T  # g x J
     n_p = len(products)
     combined = np.zeros((n_g + 2 * pad, terms * n_p, n), dtype)
@@ -106,7 +106,6 @@ def draw_combined(out: np.ndarray, beam: BeamDraw) -> None:
     out[1, gates] = scipy.fft.ifft(l21 * z1 + l22 * z2, axis=-1, overwrite_x=True)[:, :pulses]
 
 
-@staticmethod
 def draw_combined_coupled(out: np.ndarray, beam: BeamDraw) -> None:
     """:meth:`draw_combined` with the coupled channels: an n x n spectral matrix per bin.
 
@@ -123,6 +122,7 @@ def draw_combined_coupled(out: np.ndarray, beam: BeamDraw) -> None:
     if not gsel.size:
         return
     src = [np.where(wide[:, gsel], a[:, gsel], 0) for a in cells.sources(near)]
+    assert beam.coupling is not None  # the coupled draw is only made with a coupling
     cov = cell_covariance(beam.coupling.select(n_ch)[..., None], src)  # pair x J x g
     scale = float(cov[0].real.max()) or 1.0
     plist = pairs(n_ch)
@@ -157,7 +157,6 @@ def draw_combined_coupled(out: np.ndarray, beam: BeamDraw) -> None:
                 out[q, gates, parity::2] = series[k][:, parity::2]
 
 
-@staticmethod
 def draw_tones(out: np.ndarray, beam: BeamDraw) -> None:
     """Add the zero-width cells: one random tone per output gate and velocity (exact)."""
     cells, near, omega, ranges, gen_h, gen_v, need_v = beam[:7]
@@ -196,7 +195,6 @@ def draw_tones(out: np.ndarray, beam: BeamDraw) -> None:
         out[1, gates] += np.add.reduceat(a_v[:, None] * cells.tones[c_u], starts, axis=0)
 
 
-@staticmethod
 def draw_tones_coupled(out: np.ndarray, beam: BeamDraw) -> None:
     """:meth:`draw_tones` with the coupled channels (n x n factor per gate and velocity)."""
     cells, near, ranges = beam.cells, beam.near, beam.ranges
@@ -207,6 +205,7 @@ def draw_tones_coupled(out: np.ndarray, beam: BeamDraw) -> None:
     n_g, pad = out.shape[1], ranges.pad
     rows = near[jj]
     code = cells.tone_code[rows, gg]
+    assert beam.coupling is not None  # the coupled draw is only made with a coupling
     cov = cell_covariance(beam.coupling.select(n_ch)[:, :, jj], cells.sources(rows, gg))
     plist = pairs(n_ch)
     w: list[np.ndarray] = []

@@ -57,7 +57,6 @@ def expected_correlations(
     return out
 
 
-@staticmethod
 def expected_correlations_coupled(
     cells: TruthCells, near: np.ndarray, coupling: Coupling, terms: int, alternate: bool
 ) -> Any:
@@ -80,7 +79,7 @@ def expected_correlations_coupled(
     u = cells.u[near][:, gates]
     # Products by lag: lag 0 -> R0_H, R0_V, R0_HV; lag 1 -> R1_H, R1_V, R1_HV, R1_VH; lag
     # 2 -> R2_H, R2_V. One matrix product each over (source, radial).
-    plan = (
+    plan: tuple[tuple[Any, np.ndarray, tuple[int, ...]], ...] = (
         (None, np.stack([w[0], w[1], w_hv_conj]), (0, 1, 4)),
         (lag1, np.stack([w[0], w[1], w_hv_conj, w[2]]), (2, 3, 7, 8)),
         (lag2, np.stack([w[0], w[1]]), (5, 6)),
@@ -92,7 +91,7 @@ def expected_correlations_coupled(
         s0 = src * u**n if n else src
         for lag, weights, index in plan:
             s = s0 if lag is None else s0 * lag
-            out[np.ix_(gates, [n], list(index))] = (
+            out[np.ix_(gates, np.array([n]), np.array(index))] = (
                 weights.reshape(len(index), 4 * n_j) @ s.reshape(4 * n_j, gates.size)
             ).T[:, None, :]
     out[:, :, :2] = out[:, :, :2].real

@@ -312,7 +312,13 @@ class GateSum:
     """
 
     def __init__(
-        self, model: RangeModel, first: int, last: int, n_out: int, pulses: int, dtype: type
+        self,
+        model: RangeModel,
+        first: int,
+        last: int,
+        n_out: int,
+        pulses: int,
+        dtype: type | np.dtype,
     ):
         self.model = model
         self.lo = max(0, first - 2 * model.pad)

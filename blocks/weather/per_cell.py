@@ -72,6 +72,7 @@ def draw_per_cell_coupled(out: np.ndarray, beam: BeamDraw) -> None:
     n_g, pulses = out.shape[1], out.shape[2]
     rows = near[jj]
     u = cells.u[rows, gg]
+    assert beam.coupling is not None  # the coupled draw is only made with a coupling
     cov = cell_covariance(beam.coupling.select(n_ch)[:, :, jj], cells.sources(rows, gg))
     factor = cholesky(cov, n_ch, FLOOR[np.float64]).astype(out.dtype)
     ports = port_channels(beam.mode)[: 2 if n_ch > 1 else 1]

@@ -26,6 +26,7 @@ does it per truth cell with the helpers below: the received channels of a transm
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -176,7 +177,7 @@ def pairs(n: int) -> list[tuple[int, int]]:
     return [(k, k) for k in range(n)] + [(k, q) for k in range(n) for q in range(k + 1, n)]
 
 
-def cell_covariance(weights: NDArray, sources: tuple[NDArray, ...]) -> NDArray[np.complex128]:
+def cell_covariance(weights: NDArray, sources: Sequence[NDArray]) -> NDArray[np.complex128]:
     """E[w_k w_k'*] per pair from per-pair source weights (pair, source, cell) and the sources.
 
     ``sources`` are (S_h, S_v, Y, X) per cell (see :data:`SOURCE_COMPONENTS`).

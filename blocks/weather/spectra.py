@@ -4,6 +4,8 @@ channel's draws (ACF factors, circulant embedding, complex normal series).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import scipy.fft
 
@@ -15,7 +17,7 @@ JITTER = 1e-6
 # A channel's residual variance below this fraction of its own, in a Cholesky factor of a
 # channel covariance, is round-off of a rank-deficient matrix (a cross-polar channel
 # proportional to a co-polar one) and is taken as zero (float32 sums keep about 7 digits).
-FLOOR = {np.float32: 1e-5, np.float64: 1e-10}
+FLOOR: dict[Any, float] = {np.float32: 1e-5, np.float64: 1e-10}
 
 
 def gaussian_acf_factors(
