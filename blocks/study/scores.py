@@ -22,10 +22,11 @@ import numpy as np
 
 from pasim_graph.serialize import json_safe
 
+from ..signals import MOMENT_FIELDS
 from .model import Study
 from .plan import Run
 
-FIELDS = ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH")
+FIELDS = MOMENT_FIELDS
 BOOTSTRAP = 1000
 BLOCK_BEAMWIDTHS = 3.0
 #: The quadrature sum of the parts must match the total within this fraction.

@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from ..signals import MOMENT_FIELDS
+from ..signals import POLARIMETRIC_FIELDS as SIGNAL_POLARIMETRIC_FIELDS
 from .level2_file import (
     MSG_HEADER,
     VOLUME_HEADER,
@@ -28,9 +30,9 @@ from .level2_file import (
 )
 
 #: Every moment a truth sweep can carry, in xradar (ODIM-like) names.
-FIELD_NAMES: tuple[str, ...] = ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH")
+FIELD_NAMES: tuple[str, ...] = MOMENT_FIELDS
 #: Moments whose presence makes a sweep dual-polarisation.
-POLARIMETRIC_FIELDS: tuple[str, ...] = ("ZDR", "RHOHV", "PHIDP")
+POLARIMETRIC_FIELDS: tuple[str, ...] = SIGNAL_POLARIMETRIC_FIELDS
 #: Moments taken from the surveillance (long PRT) cut of a split elevation.
 SURVEILLANCE_FIELDS: tuple[str, ...] = ("DBZH", "ZDR", "RHOHV", "PHIDP")
 #: Moments taken from the Doppler (short PRT) cut of a split elevation.
