@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pasim_graph.graph import Graph, GraphError, validate
+from pasim_graph.graph import Graph, GraphError, resolve
 from pasim_graph.graphfile import BlockSpec, GraphSpec, Problem, read
 
 from .model import Case, Study, System, point_name
@@ -63,7 +63,7 @@ class Run:
             overrides[f"{name}.beamwidth_deg"] = bw
             # The Gaussian is cut at support_deg: 2.5 beamwidths is -75 dB one-way.
             overrides[f"{name}.support_deg"] = support
-        graph = validate(self.spec, overrides)
+        graph = resolve(self.spec, overrides).graph
         if not self.antennas:
             return graph
         # A wide stand-in beam (a 2 m array's 5 deg) reaches past the truth's default
@@ -74,7 +74,7 @@ class Run:
             if "margin_deg" in graph.classes[name].params
             and float(graph.value(name, "margin_deg")) < support + 1.0
         }
-        return validate(self.spec, overrides | wider) if wider else graph
+        return resolve(self.spec, overrides | wider).graph if wider else graph
 
 
 def _with_params(graph: Graph, test: Any, value: Any) -> dict[str, Any]:
@@ -198,7 +198,7 @@ def _system_runs(
 ) -> list[Run]:
     overrides = {**system.overrides, **point}
     try:
-        graph = validate(spec, overrides)
+        graph = resolve(spec, overrides).graph
     except GraphError as exc:
         problems += [_located(study, system, point, p) for p in exc.problems]
         return []
