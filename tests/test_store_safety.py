@@ -34,7 +34,7 @@ from pasim_graph.store import (
     summarize,
 )
 
-from .conftest import FIXTURES, GRAPHS, ROOT, run_cli
+from .conftest import FIXTURES, GRAPHS, ROOT, pasim, run_cli
 
 TINY = str(FIXTURES / "tiny_uniform.yaml")
 # 10 chunks of 2 beams, about 1 s of chunks after 2-3 s of set-up: long enough to be caught
@@ -77,15 +77,6 @@ def foreign_zarr(root: Path) -> Path:
         root, mode="w", consolidated=False
     )
     return root
-
-
-def pasim(capsys, *argv: str) -> tuple[int, str]:
-    """``pasim ARGV`` in this process: exit code (argparse's SystemExit too) and stderr."""
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    return code, capsys.readouterr().err
 
 
 def sweep(path: Path) -> xr.Dataset:

@@ -14,7 +14,7 @@ import pytest
 from pasim_blocks.study.model import parse_study
 from pasim_blocks.study.plan import _largest_gap
 
-from pasim_graph.cli import main
+from .conftest import pasim
 
 FIX = Path(__file__).parent / "fixtures" / "study"
 
@@ -26,14 +26,6 @@ cases:
   - {name: convective, truth: "", sector: "280:288", elevation: 0.5}
 seeds: [0]
 """
-
-
-def pasim(capsys, *argv: str) -> tuple[int, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    return code, capsys.readouterr().err
 
 
 def write(tmp_path: Path, text: str) -> Path:
