@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from pasim_blocks.study.model import parse_study
-from pasim_blocks.study.plan import _largest_gap
+from pasim_blocks.study.plan import largest_gap
 
 from .conftest import pasim
 
@@ -79,10 +79,10 @@ def test_a_sector_outside_the_truth_is_measured_as_a_gap():
     # Radials every 0.5 deg over 0:90 only (a sector file): 100:120 has none of them; 10:20
     # is covered; 80:100 has 10 deg without a radial.
     az = np.arange(0.25, 90.0, 0.5)
-    assert _largest_gap(az, (100.0, 120.0)) == pytest.approx(20.0)
-    assert _largest_gap(az, (10.0, 20.0)) <= 0.5
-    assert _largest_gap(az, (80.0, 100.0)) == pytest.approx(10.25)
-    assert _largest_gap(np.arange(0.25, 360, 0.5), (350.0, 10.0)) <= 0.5  # through north
+    assert largest_gap(az, (100.0, 120.0)) == pytest.approx(20.0)
+    assert largest_gap(az, (10.0, 20.0)) <= 0.5
+    assert largest_gap(az, (80.0, 100.0)) == pytest.approx(10.25)
+    assert largest_gap(np.arange(0.25, 360, 0.5), (350.0, 10.0)) <= 0.5  # through north
 
 
 def test_duplicate_names(tmp_path, capsys):

@@ -267,7 +267,7 @@ def _truth_problems(study: Study) -> list[Problem]:
                     f"{sweep.elevation_deg:.2f} deg",
                 )
             )
-        gap = _largest_gap(sweep.azimuth_deg, case.sector)
+        gap = largest_gap(sweep.azimuth_deg, case.sector)
         if gap > 3 * sweep.radial_width_deg:
             out.append(
                 Problem(
@@ -282,7 +282,7 @@ def _truth_problems(study: Study) -> list[Problem]:
     return out
 
 
-def _largest_gap(azimuth: Any, sector: tuple[float, float]) -> float:
+def largest_gap(azimuth: Any, sector: tuple[float, float]) -> float:
     """The longest stretch of ``sector`` (deg) without a radial of ``azimuth``."""
     import numpy as np
 
