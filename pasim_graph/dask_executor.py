@@ -34,6 +34,18 @@ from .block import Block
 from .executor import LocalExecutor, RunOptions, chunks, merge_products
 from .graph import Graph
 from .interrupt import STOPPING
+from .resources import (
+    DISK_MARGIN,
+    DiskFullError,
+    Probe,
+    ResourceError,
+    gib,
+    layout_bytes,
+    memory_available,
+    stored_bytes,
+    traced,
+    tree_bytes,
+)
 from .store import (
     COMPLETE,
     DONE,
@@ -47,6 +59,7 @@ from .store import (
     mark_complete,
     mark_incomplete,
     open_store,
+    replace_store,
     run_state,
     split_volume,
     write_region,
@@ -180,128 +193,6 @@ def check_scheduler(address: str, timeout_s: float = 3.0) -> None:
 
 class SchedulerError(RuntimeError):
     """The scheduler named for a run cannot be reached or understood."""
-
-
-class ResourceError(RuntimeError):
-    """The run would not fit the memory or the disk (estimated before its chunks run)."""
-
-
-class DiskFullError(ResourceError):
-    """The disk filled while the run wrote its store (the store is kept, resumable)."""
-
-
-@dataclass
-class Probe:
-    """What running the first beam alone showed: memory it held and what it stores."""
-
-    working_bytes: int  # peak memory of one beam above what stays allocated after it
-    shared_bytes: int  # memory that stays allocated after it (prepared inputs, memoised)
-    stored_bytes: int  # compressed size of the beam's stored products
-    layout_bytes: int = 0  # the store's metadata and the arrays written once
-
-
-def _gib(n: float) -> str:
-    if n >= 2**30:
-        return f"{n / 2**30:.1f} GiB"
-    return f"{n / 2**20:.1f} MiB" if n >= 2**20 else f"{n / 2**10:.0f} KiB"
-
-
-def _stored_bytes(sweep: xr.Dataset, beam_dim: str) -> int:
-    """Bytes one beam's variables will take in the store, compressed as zarr compresses them.
-
-    A beam's NaN gates (censored, not scored) compress to almost nothing, so the first beam
-    alone, often clear air at the edge of a sector, under-estimates a store of storm beams
-    (1.4 MB estimated, 3.9 MB written for the generic radar's 90 beams; 2.9 MB now). Each
-    variable is counted as if every gate held a value: its raw size times the compression
-    ratio of the beam's variables that have no NaN (measured on this beam), at least its own
-    size.
-    """
-    import numcodecs
-
-    codec = numcodecs.Zstd(level=0)
-    raw, packed, full_raw, full_packed = 0, 0, 0, 0
-    for var in sweep.data_vars.values():
-        if beam_dim not in var.dims:
-            continue
-        data = np.ascontiguousarray(var.values)
-        if not data.nbytes:
-            continue
-        size = len(codec.encode(data))
-        raw, packed = raw + data.nbytes, packed + size
-        if data.dtype.kind not in "fc" or not np.isnan(data).any():
-            full_raw, full_packed = full_raw + data.nbytes, full_packed + size
-    ratio = full_packed / full_raw if full_raw else 1.0
-    return max(packed, int(raw * ratio))
-
-
-def _traced(fn: Callable[[], Any]) -> tuple[Any, tuple[int, int]]:
-    """Call ``fn`` with tracemalloc on (numpy reports its buffers to it).
-
-    Returns fn's result and (peak above what remains allocated after it, what remains).
-    """
-    import tracemalloc
-
-    started = not tracemalloc.is_tracing()
-    if started:
-        tracemalloc.start()
-    try:
-        base = tracemalloc.get_traced_memory()[0]
-        tracemalloc.reset_peak()
-        result = fn()
-        current, peak = tracemalloc.get_traced_memory()
-    finally:
-        if started:
-            tracemalloc.stop()
-    kept = max(0, current - base)
-    return result, (max(0, peak - base - kept), kept)
-
-
-def memory_available() -> int:
-    """Bytes this process can still allocate: the machine's available memory, or less under
-    an address-space limit (``ulimit -v``) or a cgroup's memory limit (a container's)."""
-    import resource
-
-    import psutil
-
-    out = int(psutil.virtual_memory().available)
-    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
-    if soft != resource.RLIM_INFINITY:
-        out = min(out, soft - psutil.Process().memory_info().vms)
-    for limit, usage in (
-        ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
-        (
-            "/sys/fs/cgroup/memory/memory.limit_in_bytes",
-            "/sys/fs/cgroup/memory/memory.usage_in_bytes",
-        ),
-    ):
-        try:
-            cap = Path(limit).read_text().strip()
-            if cap.isdigit() and int(cap) < 1 << 60:
-                out = min(out, int(cap) - int(Path(usage).read_text().strip()))
-                break
-        except OSError:
-            continue
-    return max(out, 0)
-
-
-def _layout_bytes(root: xr.Dataset, sweep: xr.Dataset, beam_dim: str) -> int:
-    """The store's metadata (about 1.5 kB a node, measured) and its arrays written once."""
-    nodes = len(root.variables) + len(sweep.variables) + 3
-    once = sum(v.nbytes for v in sweep.variables.values() if beam_dim not in v.dims)
-    return 1536 * nodes + int(once) + int(sum(v.nbytes for v in root.variables.values()))
-
-
-#: How much more than its first-beam estimate a run may write (see _check_resources).
-DISK_MARGIN = 1.5
-
-
-def _tree_bytes(path: Path) -> int:
-    total = 0
-    for dirpath, _, files in os.walk(path):
-        for name in files:
-            with contextlib.suppress(OSError):
-                total += os.lstat(os.path.join(dirpath, name)).st_size
-    return total
 
 
 def _warm_up(classes: list[type[Block]]) -> None:
@@ -468,15 +359,15 @@ class DaskExecutor:
             if state is None:
                 # One beam fixes the store's layout; every chunk then runs in parallel. It is
                 # also the probe that says whether the whole run fits.
-                parts, probe_memory = _traced(lambda: self.local.run_chunk(static, np.arange(1)))
+                parts, probe_memory = traced(lambda: self.local.run_chunk(static, np.arange(1)))
                 first = merge_products(parts + self.local.static_products(static))
                 root, sweep = split_volume(first, attrs)
                 dim = beam_dimension(sweep)
                 probe = Probe(
-                    *probe_memory, _stored_bytes(sweep, dim), _layout_bytes(root, sweep, dim)
+                    *probe_memory, stored_bytes(sweep, dim), layout_bytes(root, sweep, dim)
                 )
                 self._check_resources(path, probe, n_beams, lock)
-                lock.replace()
+                replace_store(lock)
                 create_volume(
                     path,
                     root,
@@ -518,7 +409,7 @@ class DaskExecutor:
         if state is not None:
             where = f"with {int(state[1].sum())} of {n_chunks} chunks written"
         need = (
-            f"; the whole run writes about {_gib(self._disk_estimate)}"
+            f"; the whole run writes about {gib(self._disk_estimate)}"
             if self._disk_estimate
             else ""
         )
@@ -527,7 +418,7 @@ class DaskExecutor:
             if state is not None
             else "nothing was kept: free space and run it again"
         )
-        return f"{path}: the disk is full ({where}; {_gib(free)} free{need}); {keep}"
+        return f"{path}: the disk is full ({where}; {gib(free)} free{need}); {keep}"
 
     def _damaged_chunks(self, path: Path, n_chunks: int) -> list[int]:
         """The run's chunks whose stored data was damaged on disk (to be written again).
@@ -557,17 +448,17 @@ class DaskExecutor:
         self._disk_estimate = disk
         free = shutil.disk_usage(path).free
         if lock.replacing:
-            free += _tree_bytes(path)  # the store being replaced is freed before writing
+            free += tree_bytes(path)  # the store being replaced is freed before writing
         # Beams compress differently (storm against clear air): the estimate was 0.74 to
         # 1.08 of what the example graphs wrote on the bundled scene (0.28 for the uniform
         # scene's sub-megabyte store; docs/reliability.md), so the run is refused unless a
         # half more than the estimate fits.
         if DISK_MARGIN * disk > free:
             raise ResourceError(
-                f"this run would write about {_gib(disk)} to {path} "
-                f"({_gib(probe.stored_bytes)} per beam x {n_beams} beams, compressed, plus "
+                f"this run would write about {gib(disk)} to {path} "
+                f"({gib(probe.stored_bytes)} per beam x {n_beams} beams, compressed, plus "
                 f"its layout; up to {DISK_MARGIN:g}x that in beams full of echo) and "
-                f"{_gib(free)} is free there; write fewer fields (--outputs, no --save-iq), "
+                f"{gib(free)} is free there; write fewer fields (--outputs, no --save-iq), "
                 "fewer beams, or choose another --out"
             )
         if self.scheduler not in (None, *LOCAL_SCHEDULERS):
@@ -585,9 +476,9 @@ class DaskExecutor:
         available = memory_available()
         if need > available:
             raise ResourceError(
-                f"this run would need about {_gib(need)} of memory ({_gib(probe.working_bytes)} "
+                f"this run would need about {gib(need)} of memory ({gib(probe.working_bytes)} "
                 f"per beam x {beams} beams per chunk x {at_once} chunks at once, plus "
-                f"{_gib(probe.shared_bytes)} shared) and {_gib(available)} is available; use a "
+                f"{gib(probe.shared_bytes)} shared) and {gib(available)} is available; use a "
                 "smaller --chunk or fewer --workers"
             )
 

@@ -14,7 +14,6 @@ import shutil
 import time
 import warnings
 from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +21,8 @@ import numpy as np
 import xarray as xr
 
 from .ports import BEAM_DIM
+from .store_check import DamagedStoreError, NotAStoreError, check_chunks
+from .store_lock import LOCK, StoreError, StoreLock, current_writer, describe_holder
 
 _SITE = ("latitude", "longitude", "altitude")
 _ROOT_VARS = (
@@ -37,16 +38,11 @@ class StoreExistsError(FileExistsError):
     pass
 
 
-class StoreError(RuntimeError):
-    """A store cannot be written: not ours, in use by another run, or not writable."""
-
-
 # A store is a directory this program made: it holds MARKER, written before anything else, and
 # while a run writes it, LOCK (whose owner holds an flock on it). Nothing is ever deleted from
 # a directory without the marker, and zarr's mode "w" (which empties the whole directory) is
 # never used.
 MARKER = "pasim-store.json"
-LOCK = "pasim-run.lock"
 _MARKER_FORMAT = "pasim-store/1"
 
 
@@ -58,171 +54,11 @@ def is_store(path: str | Path) -> bool:
         return False
 
 
-class StoreLock:
-    """One writer per store: an flock held on ``LOCK`` inside the store while a run writes it.
-
-    The lock file says who holds it (pid, host, start, command). The kernel releases an flock
-    when its process dies, so a lock file left behind by a crash is free to take: that is how
-    a stale lock is told from a live one, and ``--resume`` takes it over. Runs on other hosts
-    cannot be checked that way; their locks are honoured until removed by hand.
-    """
-
-    def __init__(self, path: Path, fd: int, previous: dict[str, Any] | None):
-        self.path, self._fd = path, fd
-        #: What the lock file said when it was taken: the crashed run's details, or None.
-        self.previous = previous
-        #: The store was new when the run took it (or --overwrite has emptied it).
-        self.fresh = False
-        #: --overwrite of a finished store: its contents stay until the new run has read its
-        #: inputs and passed its checks, then :meth:`replace` empties it.
-        self.replacing = False
-        #: The run made the store's directory.
-        # Directories this run created for the store, deepest first (the store, then any
-        # parents that were missing): a fresh run that fails removes them again.
-        self.made_dirs: list[Path] = []
-        self._previous_bytes = b""
-
-    @classmethod
-    def acquire(cls, store: Path, command: str) -> StoreLock:
-        import fcntl
-        import os
-        import socket
-
-        path = store / LOCK
-        while True:
-            try:
-                fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-            except OSError as exc:
-                raise StoreError(f"{store}: cannot create {LOCK}: {exc.strerror or exc}") from None
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError:
-                # The holder writes who it is just after taking the lock: a run that lost a
-                # race by microseconds waits for that, to name it.
-                holder = _read_lock(fd)
-                for _ in range(40):
-                    if holder:
-                        break
-                    time.sleep(0.025)
-                    holder = _read_lock(fd)
-                os.close(fd)
-                raise StoreError(
-                    f"{store} is being written by another run ({describe_holder(holder)}); "
-                    "wait for it to finish or choose another --out"
-                ) from None
-            # The previous owner may have deleted the file between our open and our flock:
-            # then we hold a lock on a file nobody else can see, and must try again.
-            try:
-                same = os.fstat(fd).st_ino == os.stat(path).st_ino
-            except FileNotFoundError:
-                same = False
-            if same:
-                break
-            os.close(fd)
-        previous_bytes = os.pread(fd, 65536, 0)
-        previous = _read_lock(fd) or None
-        host = socket.gethostname()
-        if previous and previous.get("host") not in (None, host):
-            fcntl.flock(fd, fcntl.LOCK_UN)
-            os.close(fd)
-            raise StoreError(
-                f"{store} is locked by a run on another host ({describe_holder(previous)}); "
-                f"if that run is gone, delete {path}"
-            )
-        me = {
-            "pid": os.getpid(),
-            "host": host,
-            "started": time.strftime("%Y-%m-%dT%H:%M:%S"),
-            "command": command,
-        }
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, json.dumps(me).encode(), 0)
-        os.fsync(fd)
-        lock = cls(path, fd, previous)
-        lock._previous_bytes = previous_bytes
-        return lock
-
-    def release(self, restore: bool = False) -> None:
-        """Remove the lock file and drop the lock (idempotent).
-
-        With ``restore``, a lock file taken over from a run that stopped early is put back as
-        it was instead (a refused command leaves the store as it found it).
-        """
-        import fcntl
-        import os
-
-        if self._fd < 0:
-            return
-        if restore and self.previous:
-            os.ftruncate(self._fd, 0)
-            os.pwrite(self._fd, self._previous_bytes, 0)
-        else:
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(self.path)
-        fcntl.flock(self._fd, fcntl.LOCK_UN)
-        os.close(self._fd)
-        self._fd = -1
-
-    def replace(self) -> None:
-        """Empty a store taken with --overwrite, now that the new run is about to write it."""
-        if self.replacing:
-            clear_store(self.path.parent)
-            self.replacing = False
-            self.fresh = True
-
-    def __enter__(self) -> StoreLock:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.release()
-
-
-def _read_lock(fd: int) -> dict[str, Any]:
-    import os
-
-    try:
-        data = os.pread(fd, 65536, 0)
-        out = json.loads(data) if data.strip() else {}
-        return out if isinstance(out, dict) else {}
-    except (OSError, ValueError):
-        return {}
-
-
-def current_writer(store: str | Path) -> dict[str, Any] | None:
-    """Who is writing a store now (what its lock file says), or None when no run holds it."""
-    import fcntl
-    import os
-
-    try:
-        fd = os.open(Path(store) / LOCK, os.O_RDONLY)
-    except OSError:
-        return None
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
-        except OSError:
-            return _read_lock(fd)  # held: a run is writing
-        fcntl.flock(fd, fcntl.LOCK_UN)
-        return None
-    finally:
-        os.close(fd)
-
-
-def describe_holder(holder: dict[str, Any]) -> str:
-    """Who holds (or held) a store's lock, as the lock file says, in words."""
-    if not holder:
-        return "owner unknown"
-    text = f"pid {holder.get('pid')} on {holder.get('host')}, started {holder.get('started')}"
-    if holder.get("command"):
-        text += f": {holder['command']}"
-    return text
-
-
 def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str) -> StoreLock:
     """Take a directory for a run to write, refusing anything this program did not write.
 
     ``path`` may be missing or an empty directory (a new store), or a store of ours: with
-    ``overwrite`` it is marked for replacement (emptied by :meth:`StoreLock.replace` only once
+    ``overwrite`` it is marked for replacement (emptied by :func:`replace_store` only once
     the new run is ready to write, so a run that fails first leaves it as it was), with
     ``resume`` it is kept for the run to complete; without either an existing store is
     refused. An overwrite is refused, naming them, when the store holds files this program
@@ -297,6 +133,14 @@ def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str)
         lock.release(restore=True)
         raise
     return lock
+
+
+def replace_store(lock: StoreLock) -> None:
+    """Empty a store taken with --overwrite, now that the new run is about to write it."""
+    if lock.replacing:
+        clear_store(lock.path.parent)
+        lock.replacing = False
+        lock.fresh = True
 
 
 def discard_store(lock: StoreLock) -> None:
@@ -629,94 +473,6 @@ def beam_dimension(sweep: xr.Dataset) -> str:
 
 class IncompleteStoreError(RuntimeError):
     pass
-
-
-class NotAStoreError(ValueError):
-    """The path is not a finished PASIM-graph run."""
-
-
-@dataclass(frozen=True)
-class Damage:
-    """One damaged piece of a store: an array's chunk, or a node's metadata."""
-
-    node: str  # the array or group, relative to the store ("sweep_0/DBZH")
-    chunk: tuple[int, ...] | None  # the chunk's grid index; None: the node's metadata
-    why: str
-    beam_axis: int | None = None  # the array's beam dimension, when it has one
-
-    def __str__(self) -> str:
-        if self.chunk is None:
-            return f"{self.node}/zarr.json ({self.why})"
-        key = "/".join(["c", *map(str, self.chunk)])
-        return f"{self.node} chunk {key} ({self.why})"
-
-
-def check_chunks(path: str | Path) -> list[Damage]:
-    """Read every chunk of every array in a store and say which are damaged.
-
-    Chunks are written under a CRC-32C checksum and every chunk is written (empty ones too),
-    so a chunk file that was truncated, altered or removed after the run wrote it is found
-    here instead of being read as wrong numbers or NaN.
-    """
-    import itertools
-
-    import zarr
-
-    root = Path(path)
-    out: list[Damage] = []
-    for meta_path in sorted(root.rglob("zarr.json")):
-        node = meta_path.parent.relative_to(root).as_posix()
-        node = "" if node == "." else node
-        try:
-            meta = json.loads(meta_path.read_text())
-            if not isinstance(meta, dict) or meta.get("node_type") not in ("array", "group"):
-                raise ValueError("not Zarr v3 metadata")
-        except (OSError, ValueError) as exc:
-            out.append(Damage(node or ".", None, f"unreadable: {_short(exc)}"))
-            continue
-        if meta["node_type"] != "array":
-            continue
-        try:
-            arr = zarr.open_array(str(root), path=node, mode="r")
-        except Exception as exc:
-            out.append(Damage(node, None, f"cannot be opened: {_short(exc)}"))
-            continue
-        names = list(meta.get("dimension_names") or [])
-        beam_axis = next(
-            (names.index(d) for d in ("azimuth", "elevation", "time") if d in names), None
-        )
-        grid = [-(-n // c) for n, c in zip(arr.shape, arr.chunks, strict=True)]
-        for idx in itertools.product(*(range(g) for g in grid)):
-            chunk_file = meta_path.parent.joinpath("c", *map(str, idx))
-            if not chunk_file.is_file():
-                out.append(Damage(node, idx, "missing", beam_axis))
-                continue
-            try:
-                arr.get_block_selection(idx)
-            except Exception as exc:
-                out.append(Damage(node, idx, f"unreadable: {_short(exc)}", beam_axis))
-    return out
-
-
-def _short(exc: BaseException) -> str:
-    text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-    if "checksum" in text.lower():
-        return "checksum mismatch"
-    return text if len(text) <= 120 else text[:117] + "..."
-
-
-class DamagedStoreError(NotAStoreError):
-    """A finished store whose files were damaged after the run wrote them."""
-
-    def __init__(self, path: str | Path, damage: list[Damage]):
-        self.path, self.damage = Path(path), damage
-        shown = "; ".join(map(str, damage[:6]))
-        more = f"; and {len(damage) - 6} more" if len(damage) > 6 else ""
-        super().__init__(
-            f"{path} is damaged: {shown}{more}. Rewrite the damaged chunks with the run's own "
-            "command and --resume (graph, seed and options as stored), or run it again with "
-            "--overwrite"
-        )
 
 
 def open_sweep(path: str | Path) -> tuple[xr.Dataset, dict[str, Any]]:
