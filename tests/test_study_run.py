@@ -162,20 +162,25 @@ def _mtimes(folder: Path) -> dict[str, float]:
     return {str(p): p.stat().st_mtime_ns for p in folder.rglob("*") if p.is_file()}
 
 
-def test_kill_9_mid_study_then_resume(tmp_path, study):
-    out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "pasim_graph", "study", str(STUDY), "--out", str(out)]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    manifest = out / "pasim-study.json"
+def wait_for_runs(manifest: Path, proc: subprocess.Popen, n: int) -> None:
+    """Until the study's manifest lists ``n`` finished runs, or the study ends (300 s at most)."""
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline:
         try:
             done = len(json.loads(manifest.read_text())["runs"])
         except (OSError, ValueError):
             done = 0
-        if done >= 3 or proc.poll() is not None:
-            break
+        if done >= n or proc.poll() is not None:
+            return
         time.sleep(0.05)
+
+
+def test_kill_9_mid_study_then_resume(tmp_path, study):
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "pasim_graph", "study", str(STUDY), "--out", str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    manifest = out / "pasim-study.json"
+    wait_for_runs(manifest, proc, 3)
     assert proc.poll() is None, "the study ended before it could be killed"
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
@@ -200,15 +205,7 @@ def test_a_signalled_study_ends_with_one_line_and_resumes(tmp_path, study, sig):
     cmd = [sys.executable, "-m", "pasim_graph", "study", str(STUDY), "--out", str(out)]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     manifest = out / "pasim-study.json"
-    deadline = time.monotonic() + 300
-    while time.monotonic() < deadline:
-        try:
-            done = len(json.loads(manifest.read_text())["runs"])
-        except (OSError, ValueError):
-            done = 0
-        if done >= 2 or proc.poll() is not None:
-            break
-        time.sleep(0.05)
+    wait_for_runs(manifest, proc, 2)
     assert proc.poll() is None, "the study ended before it could be signalled"
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=300)
