@@ -541,7 +541,7 @@ def _add_plugin_commands(sub: Any) -> None:
         parser.set_defaults(func=command.run)
 
 
-# -- studio, graph pictures and run pictures (issue 17); their modules load only when used --
+# -- studio and graph pictures (issue 17); their modules load only when used --
 
 
 def cmd_studio(args: argparse.Namespace) -> int:
@@ -563,24 +563,6 @@ def cmd_graph(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_plot(args: argparse.Namespace) -> int:
-    from .plot import NotAStoreError, plot_store
-
-    store = Path(args.store)
-    out = Path(args.out) if args.out else Path(store.name.removesuffix(".zarr") + ".png")
-    fields = [f.strip() for f in args.fields.split(",") if f.strip()] if args.fields else None
-    try:
-        notes = plot_store(store, out, fields)
-    except NotAStoreError as exc:
-        raise UserError(str(exc)) from None
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
-    for note in notes:
-        print(f"note: {note}", file=sys.stderr)
-    print(f"wrote {out}", file=sys.stderr)
-    return 0
-
-
 def _add_studio_commands(sub: Any) -> None:
     st = sub.add_parser(
         "studio", help="edit, run and compare graphs in the browser (a local web page)"
@@ -598,12 +580,6 @@ def _add_studio_commands(sub: Any) -> None:
     gr.add_argument("--format", choices=["svg", "dot", "mermaid"], default="svg")
     gr.add_argument("--out", metavar="FILE", help="write to FILE instead of printing")
     gr.set_defaults(func=cmd_graph)
-
-    pl = sub.add_parser("plot", help="truth, estimate and error of each moment of a run as PPIs")
-    pl.add_argument("store")
-    pl.add_argument("--fields", metavar="FIELD[,FIELD...]", help="moments to draw (default: all)")
-    pl.add_argument("--out", metavar="FILE.png", help="default: the store's name with .png")
-    pl.set_defaults(func=cmd_plot)
 
 
 def _show_warning(

@@ -459,9 +459,10 @@ def _resolve(
     line: int,
     problems: list[Problem],
 ) -> str | None:
+    meant = end.port_in(ports)
+    if meant is not None:
+        return meant
     if end.port is None:
-        if len(ports) == 1:
-            return next(iter(ports))
         listed = ", ".join(ports) or "none"
         problems.append(
             Problem(
@@ -473,19 +474,17 @@ def _resolve(
             )
         )
         return None
-    if end.port not in ports:
-        listed = ", ".join(ports) or "none"
-        problems.append(
-            Problem(
-                spec.file,
-                line,
-                end.block,
-                f"port '{end.port}'",
-                f"no {side} port named {end.port!r}; {side}s: {listed}",
-            )
+    listed = ", ".join(ports) or "none"
+    problems.append(
+        Problem(
+            spec.file,
+            line,
+            end.block,
+            f"port '{end.port}'",
+            f"no {side} port named {end.port!r}; {side}s: {listed}",
         )
-        return None
-    return end.port
+    )
+    return None
 
 
 def _check_connections(

@@ -19,7 +19,7 @@ from typing import Any
 import networkx as nx
 
 from . import registry
-from .graphfile import GraphSpec
+from .graphfile import Endpoint, GraphSpec
 
 #: Geometry shared with the studio's block nodes (its CSS uses the same numbers), so that the
 #: automatic layout leaves room for every port row.
@@ -200,7 +200,7 @@ def _resolve(node: NodeView, side: str, port: str | None) -> str | None:
     """The port a wire end means: named, or the block's only port on that side."""
     ports = node.inputs if side == "in" else node.outputs
     if port is None:
-        return ports[0].name if len(ports) == 1 else None
+        return Endpoint(node.name, None).port_in(p.name for p in ports)
     if not node.known and port not in [p.name for p in ports]:
         # An unknown type is drawn with the ports its wires name.
         ports.append(PortView(port, None))

@@ -17,6 +17,7 @@ on that side. ``$name`` refers to a variable. Reading never raises on bad conten
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -66,6 +67,17 @@ class Endpoint:
 
     def __str__(self) -> str:
         return f"{self.block}.{self.port}" if self.port else self.block
+
+    def port_in(self, ports: Iterable[str]) -> str | None:
+        """The port this wire end means among a block's ports on its side: the one it names,
+        if the block has it, or, when it names none, the block's only port; else None.
+
+        The one rule the validator, the graph pictures and the studio's swaps share.
+        """
+        names = list(ports)
+        if self.port is None:
+            return names[0] if len(names) == 1 else None
+        return self.port if self.port in names else None
 
 
 @dataclass

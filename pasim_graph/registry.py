@@ -19,6 +19,9 @@ from .block import TYPE_NAMES, Block
 GROUP = "pasim_graph.blocks"
 #: Entry-point group of command-line subcommands from plugin packages (``pasim waveform``).
 COMMANDS = "pasim_graph.commands"
+#: Entry-point group of a finished run's pictures: each names a callable
+#: ``(sweep, scores, dpi) -> ([(name, png bytes), ...], [note, ...])`` (the studio draws them).
+FIGURES = "pasim_graph.figures"
 
 
 class PluginWarning(RuntimeWarning):
@@ -126,4 +129,30 @@ def commands() -> dict[str, Any]:
             )
             continue
         out[ep.name] = command
+    return out
+
+
+def figure_makers() -> dict[str, Any]:
+    """Run-picture makers registered by packages (:data:`FIGURES`), by name.
+
+    The engine knows no radar moments; the block library registers the PPIs of truth,
+    estimate and error. One that fails to load warns and is left out.
+    """
+    out: dict[str, Any] = {}
+    for ep in sorted(entry_points(group=FIGURES), key=lambda e: (e.name, e.value)):
+        if ep.name in out:
+            continue
+        try:
+            make = ep.load()
+            if not callable(make):
+                raise TypeError(f"{ep.value} is not callable")
+        except Exception as exc:  # a broken plugin must not break the studio
+            warnings.warn(
+                f"figure plugin {ep.name!r} ({ep.value}) failed to load: "
+                f"{type(exc).__name__}: {exc}",
+                PluginWarning,
+                stacklevel=2,
+            )
+            continue
+        out[ep.name] = make
     return out

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import xarray as xr
 from matplotlib.image import imread
+from pasim_blocks.products.plot import STYLES, moment_row, open_sweep, ppi_mesh, store_figure
 
-from pasim_graph.plot import STYLES, moment_row, open_sweep, ppi_mesh, store_figure
 from pasim_graph.store import summarize
 
 from .conftest import GRAPHS, run_cli
@@ -127,3 +127,15 @@ def test_scores_are_written_on_the_error_panels(store):
     (text,) = [t.get_text() for t in axes[2].texts]
     assert f"bias {s['bias']:.3g}" in text
     assert ("pass" if s["pass"] else "fail") in text
+
+
+def test_the_studio_finds_the_run_pictures_through_the_figures_entry_point(store):
+    """The engine draws no moment itself: the block library registers ``run_figures`` in the
+    ``pasim_graph.figures`` group, and a PNG comes back for each moment in the store."""
+    from pasim_graph import registry
+
+    make = registry.figure_makers()["moments"]
+    sweep, _ = open_sweep(store)
+    pictures, notes = make(sweep.load(), summarize(sweep), 40)
+    assert [name for name, _ in pictures] == list(STYLES) and notes == []
+    assert all(png.startswith(b"\x89PNG\r\n\x1a\n") for _, png in pictures)

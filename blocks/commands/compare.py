@@ -12,6 +12,8 @@ import json
 import math
 from typing import Any
 
+from pasim_graph.serialize import json_safe
+
 QUANTITIES = ("std", "robust_std", "bias", "count")
 
 
@@ -21,14 +23,6 @@ def _num(v: Any) -> str:
     if isinstance(v, int):
         return f"{v:,}"
     return f"{v:.4g}"
-
-
-def _json_safe(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {k: _json_safe(v) for k, v in x.items()}
-    if isinstance(x, list):
-        return [_json_safe(v) for v in x]
-    return None if isinstance(x, float) and not math.isfinite(x) else x
 
 
 def _table(header: list[str], rows: list[list[str]]) -> str:
@@ -60,7 +54,7 @@ class CompareCommand:
             raise UserError(str(exc)) from None
         cols = names(stores)
         if args.json:
-            print(json.dumps(_json_safe({"stores": cols, "fields": result}), indent=2))
+            print(json.dumps(json_safe({"stores": cols, "fields": result}), indent=2))
             return 0
         rows = []
         for name, r in result.items():
@@ -96,7 +90,7 @@ class CompareCommand:
         except CompareError as exc:
             raise UserError(str(exc)) from None
         if args.json:
-            print(json.dumps(_json_safe(result), indent=2))
+            print(json.dumps(json_safe(result), indent=2))
             return 0
         table_rows = [
             [
@@ -120,7 +114,7 @@ class CompareCommand:
         self, rows: list[dict[str, Any]], fields: list[str], args: argparse.Namespace
     ) -> int:
         if args.json:
-            print(json.dumps(_json_safe(rows), indent=2))
+            print(json.dumps(json_safe(rows), indent=2))
             return 0
         header = ["azimuth", "beams"]
         for f in fields:

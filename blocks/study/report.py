@@ -94,7 +94,7 @@ def _canvas(width: float, height: float) -> Any:
 
 
 def _uri(fig: Any, dpi: int = 72) -> str:
-    from pasim_graph.plot import png_bytes
+    from ..products.plot import png_bytes
 
     return "data:image/png;base64," + base64.b64encode(png_bytes(fig, dpi)).decode("ascii")
 
@@ -294,7 +294,7 @@ def _open(path: Path) -> tuple[Any, dict[str, Any]] | None:
 def _limits(sweeps: list[Any], name: str) -> tuple[float, float]:
     """Shared colour limits of a moment: the style's, velocity on the widest Nyquist interval,
     phi_DP on the span of the truth."""
-    from pasim_graph.plot import STYLES
+    from ..products.plot import STYLES
 
     style = STYLES[name]
     if name == "VRADH":
@@ -337,7 +337,7 @@ def ppi_figure(name: str, panels: list[tuple[str, Any]]) -> Figure:
     """Truth beside each system's estimate of one moment, on shared limits."""
     import cmweather  # noqa: F401  (registers the weather-radar colour maps)
 
-    from pasim_graph.plot import STYLES, ppi_mesh
+    from ..products.plot import STYLES, ppi_mesh
 
     style = STYLES[name]
     vmin, vmax = _limits([s for _, s in panels], name)
@@ -381,7 +381,7 @@ def histogram_figure(panels: list[tuple[str, Any]]) -> Figure:
     """Truth against estimate on each system's scored gates, one row per moment."""
     from matplotlib.colors import LogNorm
 
-    from pasim_graph.plot import STYLES
+    from ..products.plot import STYLES
 
     names = [n for n in FIELDS if any(f"error_{n}" in s for _, s in panels)]
     fig = _canvas(2.9 * len(panels) + 0.6, 2.6 * len(names))

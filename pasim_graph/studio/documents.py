@@ -372,12 +372,6 @@ def _wires(spec: GraphSpec, block: str) -> list[ConnectionSpec]:
     return [c for c in spec.connections if block in (c.src.block, c.dst.block)]
 
 
-def _port(ports: dict[str, Any], name: str | None) -> str | None:
-    if name is None:
-        return next(iter(ports)) if len(ports) == 1 else None
-    return name if name in ports else None
-
-
 def fit(spec: GraphSpec, block: str, cls: type[Block]) -> list[str]:
     """Why a block of type ``cls`` would not fit the wires ``block`` has (empty: it fits).
 
@@ -398,12 +392,12 @@ def fit(spec: GraphSpec, block: str, cls: type[Block]) -> list[str]:
         if other_cls is None:
             continue
         far_ports = other_cls.outputs if incoming else other_cls.inputs
-        far = _port(far_ports, other.port)
+        far = other.port_in(far_ports)
         if far is None:
             continue
         near_ports = cls.inputs if incoming else cls.outputs
         side = "input" if incoming else "output"
-        near = _port(near_ports, mine.port)
+        near = mine.port_in(near_ports)
         if near is None:
             listed = ", ".join(near_ports) or "none"
             if mine.port is None:
@@ -439,13 +433,13 @@ def swap_options(doc: Any, block: str) -> dict[str, Any]:
     if block not in spec.blocks:
         raise RequestError(404, f"no block named {block!r} in the graph")
     current = spec.blocks[block]
-    into = [c.dst.port for c in _wires(spec, block) if c.dst.block == block]
+    into = [c.dst for c in _wires(spec, block) if c.dst.block == block]
     options = []
     for name, cls in registry.all_blocks().items():
         if name == current.type:
             continue
         reasons = fit(spec, block, cls)
-        connected = {_port(cls.inputs, p) for p in into}
+        connected = {end.port_in(cls.inputs) for end in into}
         unwired = [p.name for p in cls.inputs.values() if p.required and p.name not in connected]
         options.append(
             {

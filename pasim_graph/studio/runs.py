@@ -6,7 +6,7 @@ runs is the document as edited in the page (saved or not), written to the run's 
 the canonical writer; the store goes there too, never next to the user's graphs. Progress is
 read from the store's per-chunk done flags (``store.run_state``), the same flags ``--resume``
 uses. When the run finishes, its scores (``store.summarize``) and one PPI picture per moment
-(:mod:`pasim_graph.plot`) are computed once and kept.
+(from the ``pasim_graph.figures`` plugins: the block library's PPIs) are computed once and kept.
 """
 
 from __future__ import annotations
@@ -279,18 +279,21 @@ class Runs:
             time.sleep(0.2)
 
     def _results(self, run: Run) -> None:
-        from ..plot import available, moment_figure, open_sweep, png_bytes
-        from ..store import summarize
+        from ..registry import figure_makers
+        from ..store import open_sweep, summarize
 
         sweep, _ = open_sweep(run.store)
         sweep = sweep.load()
         run.scores = summarize(sweep)
-        names, notes = available(sweep)
-        run.notes += notes
-        for name in names:
-            fig = moment_figure(sweep, name, run.scores)
-            (run.folder / f"{name}.png").write_bytes(png_bytes(fig, dpi=80))
-            run.images.append(name)
+        makers = figure_makers()
+        if not makers:
+            run.notes.append("no package draws run pictures (pasim_graph.figures); scores only")
+        for make in makers.values():
+            pictures, notes = make(sweep, run.scores, 80)
+            run.notes += notes
+            for name, png in pictures:
+                (run.folder / f"{name}.png").write_bytes(png)
+                run.images.append(name)
 
     def cancel(self, run_id: str) -> Run:
         run = self.get(run_id)

@@ -4,7 +4,8 @@
 truth), in km east and north of the radar, with the usual weather-radar colour maps
 (cmweather's ChaseSpectral for reflectivity, balance for velocity and for every error, ...)
 and fixed limits per moment, so that two runs are drawn on the same scales. The studio shows
-the same pictures, one moment at a time (:func:`moment_figure`).
+the same pictures, one moment at a time (:func:`run_figures`, registered in the
+``pasim_graph.figures`` entry-point group so the engine's studio never imports this package).
 
 Only matplotlib's object API is used (``Figure`` with the Agg canvas, never ``pyplot``): no
 global state, so the studio can draw from several threads and no display is ever needed.
@@ -21,11 +22,11 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .store import NotAStoreError, open_sweep
+from pasim_graph.store import NotAStoreError, open_sweep
+
+from ..signals import MOMENT_FIELDS as MOMENTS
 
 __all__ = ["NotAStoreError", "open_sweep"]  # re-exported: the plot reads a run with them
-
-MOMENTS = ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH")
 
 
 @dataclass(frozen=True)
@@ -311,7 +312,7 @@ def plot_store(
     ValueError
         None of the fields can be drawn.
     """
-    from .store import summarize
+    from pasim_graph.store import summarize
 
     sweep, attrs = open_sweep(path)
     names, notes = available(sweep, fields)
@@ -320,3 +321,15 @@ def plot_store(
     fig = store_figure(sweep, names, title_of(path, attrs, sweep), summarize(sweep))
     Path(out).write_bytes(png_bytes(fig, dpi))
     return notes
+
+
+def run_figures(
+    sweep: xr.Dataset, scores: dict | None = None, dpi: int = 80
+) -> tuple[list[tuple[str, bytes]], list[str]]:
+    """One PNG per moment the sweep can show (truth | estimate | error), and notes on the rest.
+
+    The studio's run pictures: the engine finds this function through the
+    ``pasim_graph.figures`` entry-point group (``moments``) and calls it on a finished store.
+    """
+    names, notes = available(sweep)
+    return [(n, png_bytes(moment_figure(sweep, n, scores), dpi=dpi)) for n in names], notes
