@@ -116,7 +116,8 @@ def run_fresh(env: Path, *args: str, cwd: Path) -> subprocess.CompletedProcess:
 def test_wheel_installs_and_every_entry_point_loads_from_it(fresh: Path, tmp_path: Path) -> None:
     code = (
         "import importlib.metadata as md, json, pasim_blocks, pasim_graph\n"
-        "eps = [e for g in ('pasim_graph.blocks', 'pasim_graph.commands')\n"
+        "eps = [e for g in ('pasim_graph.blocks', 'pasim_graph.commands',\n"
+        "                          'pasim_graph.figures')\n"
         "       for e in md.entry_points(group=g)]\n"
         "loaded = {e.name: e.load().__module__ for e in eps}\n"
         "print(json.dumps({'blocks': pasim_blocks.__file__, 'graph': pasim_graph.__file__,\n"
@@ -129,6 +130,7 @@ def test_wheel_installs_and_every_entry_point_loads_from_it(fresh: Path, tmp_pat
         assert str(fresh) in info[key], info[key]  # the wheel's copy, not the repository's
     source = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["entry-points"]
     expected = {*source["pasim_graph.blocks"], *source["pasim_graph.commands"]}
+    expected |= set(source["pasim_graph.figures"])
     assert set(info["loaded"]) == expected
     listing = run_fresh(fresh, str(fresh / "bin" / "pasim"), "blocks", "--json", cwd=tmp_path)
     assert listing.returncode == 0, listing.stderr
