@@ -502,6 +502,8 @@ class DaskExecutor:
         attrs: dict[str, Any],
     ) -> None:
         import dask
+        import dask.local
+        import dask.threaded
         from dask.diagnostics import ProgressBar
         from threadpoolctl import threadpool_limits
 
@@ -522,10 +524,12 @@ class DaskExecutor:
                 threadpool_limits(limits=1, user_api="blas"),
                 ProgressBar() if self.progress else contextlib.nullcontext(),
             ):
+                # The schedulers' functions, not their names: a name makes dask import
+                # distributed to look for a client (half a second of every local run).
                 if pool is None:
-                    dask.compute(*tasks, scheduler="sync")
+                    dask.compute(*tasks, scheduler=dask.local.get_sync)
                 else:
-                    dask.compute(*tasks, scheduler="threads", pool=pool)
+                    dask.compute(*tasks, scheduler=dask.threaded.get, pool=pool)
         finally:
             if pool is not None:
                 pool.shutdown(wait=True, cancel_futures=True)

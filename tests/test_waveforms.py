@@ -239,3 +239,20 @@ def test_graph_runs_with_the_weather_channel(name: str) -> None:
     assert ds.attrs["blind_range_m"] == pytest.approx(blind)
     assert np.all(np.isnan(ds["DBZH"].values[:, r < blind]))
     assert np.isfinite(ds["DBZH"].values[:, r > blind]).sum() > 100
+
+
+def test_convolve_full_is_scipys_convolution_without_importing_it() -> None:
+    """Up to DIRECT_PRODUCTS multiply-adds scipy.signal.convolve chooses the direct method
+    (through np.convolve), so convolve_full gives its numbers to the bit; above, it calls it."""
+    import scipy.signal
+    from pasim_blocks.waveforms.compression import DIRECT_PRODUCTS, convolve_full
+
+    rng = np.random.default_rng(3)
+    for n, m in [(2, 2), (64, 3), (1000, 1000), (4000, 1000), (DIRECT_PRODUCTS // 2000, 2000)]:
+        a = rng.standard_normal(n) + 1j * rng.standard_normal(n)
+        b = rng.standard_normal(m) + 1j * rng.standard_normal(m)
+        assert n * m <= DIRECT_PRODUCTS
+        assert scipy.signal.choose_conv_method(a, b, mode="full") == "direct"
+        np.testing.assert_array_equal(convolve_full(a, b), scipy.signal.convolve(a, b))
+    a, b = rng.standard_normal(5000), rng.standard_normal(1000)
+    np.testing.assert_allclose(convolve_full(a, b), np.convolve(a, b), atol=1e-9)

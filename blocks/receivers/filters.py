@@ -24,7 +24,7 @@ import xarray as xr
 from pasim_graph import Block, Chunk, Input, Output, Param
 
 from ..signals import PULSE, RANGE_RESPONSE, SPEED_OF_LIGHT
-from ..waveforms.compression import snr_loss_db
+from ..waveforms.compression import convolve_full, snr_loss_db
 
 
 def range_response(
@@ -35,10 +35,8 @@ def range_response(
     ``zero_index`` is the output sample (of the full convolution) at which a scatterer at the
     gate itself appears: where the reference's mainlobe peaks.
     """
-    import scipy.signal
-
     fs = float(sample_rate_hz)
-    y = scipy.signal.convolve(pulse, taps, mode="full")
+    y = convolve_full(pulse, taps)
     lag = np.arange(y.size) - zero_index
     # Offset dr = -lag c / (2 fs); reversed so that offsets increase.
     offset_m = (-lag / fs * SPEED_OF_LIGHT / 2.0)[::-1]
@@ -84,10 +82,6 @@ class MatchedFilter(Block):
     pulse = Input(PULSE, doc="radiated envelope")
     reference = Input(PULSE, doc="waveform the filter is matched to")
     range_response = Output(RANGE_RESPONSE, doc="|y|^2 against range offset; noise bandwidth")
-
-    @classmethod
-    def warm_up(cls) -> None:
-        import scipy.signal  # noqa: F401
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         s, r, fs = _pulse_and_reference(inputs)
