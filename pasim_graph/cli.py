@@ -438,8 +438,8 @@ def parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
         "--levels",
         metavar="LEVEL[,LEVEL...]",
         help="run only these levels of the graph's fidelity ladder (for the weather channel: "
-        "expected, combined-40dB, combined, combined-f64, covariance, covariance-f64, "
-        "monte_carlo); default: all",
+        "expected, combined-40dB, combined, combined-f64, covariance, covariance-all, "
+        "covariance-f64, monte_carlo); default: all",
     )
     tr.add_argument("--json", action="store_true", help="print a list of rows as JSON")
     tr.set_defaults(func=cmd_tradeoff)

@@ -35,9 +35,14 @@ def scores(tmp_path, graph, *sets):
 @pytest.mark.parametrize("width", [0.0, 0.01])
 def test_zero_and_tiny_spectrum_width(tmp_path, width):
     """Width 0 makes eq. 13 singular; the 64 pulses are then one sample, and the power
-    estimate is exponential: std of 10 log10 of an exponential variable = 5.57 dB (theory)."""
+    estimate is exponential: std of 10 log10 of an exponential variable = 5.57 dB (theory).
+
+    A gate is undefined when its one echo sample falls below the noise estimate's spread:
+    P(|a|^2 < 3 sigma_N) = 1 - exp(-(3 / sqrt(64)) / SNR), 0.37 % of gates at SNR 20 dB, so
+    a few of the 1,000 gates may be, never more than three times that."""
     s = scores(tmp_path, UNIFORM, f"scene.spectrum_width_ms={width}")
-    assert s["DBZH"]["unestimated"] == 0
+    n = s["DBZH"]["scored_gates"]
+    assert s["DBZH"]["unestimated"] <= 3 * n * (1 - math.exp(-(3 / 8) / 100))
     assert s["DBZH"]["std"] == pytest.approx(5.57, rel=0.1)
 
 

@@ -127,3 +127,30 @@ class BeamDraw(NamedTuple):
     coupling: Coupling | None
     channels: int
     mode: str
+    #: Per gate, the weakest per-cell echoes whose summed expected power stays within this
+    #: fraction of the gate's total are not drawn (0: every cell; :func:`significant_cells`).
+    support_fraction: float = 0.0
+
+
+def significant_cells(power: np.ndarray, gate: np.ndarray, fraction: float) -> np.ndarray:
+    """Which cells to draw: all but, at each gate, the weakest whose powers sum to at most
+    ``fraction`` of that gate's total.
+
+    ``power`` is each cell's expected echo power through the two-way pattern and ``gate`` its
+    gate (cells of one gate contiguous, as the drawing paths order them). The power left out
+    at a gate is at most ``fraction`` of its expected echo, whatever the range response
+    spreads it over (one response for every cell of a gate), so the expected power of every
+    output gate is low by at most that fraction.
+    """
+    keep = np.ones(power.size, bool)
+    if fraction <= 0 or power.size == 0:
+        return keep
+    order = np.lexsort((power, gate))  # by gate, weakest first within a gate
+    p, g = power[order], gate[order]
+    cum = np.cumsum(p)
+    first = np.flatnonzero(np.r_[True, g[1:] != g[:-1]])
+    counts = np.diff(np.r_[first, p.size])
+    before = np.repeat(np.r_[0.0, cum[first[1:] - 1]], counts)
+    total = np.repeat(cum[np.r_[first[1:] - 1, p.size - 1]], counts) - before
+    keep[order] = (cum - before) > fraction * total
+    return keep

@@ -39,6 +39,7 @@ from .polarimetry import (
 
 #: Fidelity levels of the weather channel, fastest first.
 METHODS = ("expected", "combined", "covariance", "monte_carlo")
+_COVARIANCE = {"method": "covariance", "support_db": -100.0}
 
 
 class WeatherChannel(Block):
@@ -129,6 +130,15 @@ class WeatherChannel(Block):
         doc="range-response terms (gate offsets, sub-gate components, Doppler orders) below "
         "this level from the strongest are dropped",
     )
+    support_fraction = Param(
+        1e-3,
+        min=0.0,
+        max=0.1,
+        doc="scene-aware support of the per-cell levels (covariance, monte_carlo): per gate, "
+        "leave undrawn the weakest truth cells whose summed expected echo power is at most "
+        "this fraction of the gate's, so that each gate's expected power is low by at most "
+        "this fraction (1e-3: 0.0043 dB); 0 draws every cell. combined draws every cell",
+    )
     precision = Param(
         "float32",
         type="str",
@@ -158,14 +168,17 @@ class WeatherChannel(Block):
     )
 
     # Fastest first, most faithful last; ``pasim tradeoff`` runs them all. -40 dB keeps the
-    # main lobe and first sidelobes of a -32 dB antenna and drops the far ones.
+    # main lobe and first sidelobes of a -32 dB antenna and drops the far ones; covariance
+    # leaves undrawn the weakest cells summing to 0.1 % of each gate's echo, covariance-all
+    # draws them all.
     fidelity_ladder = (
         ("expected", {"method": "expected", "support_db": -100.0, "precision": "float64"}),
         ("combined-40dB", {"method": "combined", "support_db": -40.0, "precision": "float32"}),
         ("combined", {"method": "combined", "support_db": -100.0, "precision": "float32"}),
         ("combined-f64", {"method": "combined", "support_db": -100.0, "precision": "float64"}),
-        ("covariance", {"method": "covariance", "support_db": -100.0, "precision": "float32"}),
-        ("covariance-f64", {"method": "covariance", "support_db": -100.0, "precision": "float64"}),
+        ("covariance", {**_COVARIANCE, "support_fraction": 1e-3, "precision": "float32"}),
+        ("covariance-all", {**_COVARIANCE, "support_fraction": 0.0, "precision": "float32"}),
+        ("covariance-f64", {**_COVARIANCE, "support_fraction": 0.0, "precision": "float64"}),
         ("monte_carlo", {"method": "monte_carlo", "support_db": -100.0, "precision": "float32"}),
     )
 
@@ -281,7 +294,19 @@ class WeatherChannel(Block):
             if method == "expected" or near.size == 0:
                 continue
             gen_h, gen_v = chunk.rng(int(beam)), chunk.rng(int(beam), 1)
-            draw = BeamDraw(cells, near, omega, ranges, gen_h, gen_v, need_v, coupling, drawn, mode)
+            draw = BeamDraw(
+                cells,
+                near,
+                omega,
+                ranges,
+                gen_h,
+                gen_v,
+                need_v,
+                coupling,
+                drawn,
+                mode,
+                self.p["support_fraction"] if method != "combined" else 0.0,
+            )
             if coupling is None:
                 if method == "combined":
                     draw_combined(iq[i], draw)

@@ -9,7 +9,7 @@ import numpy as np
 
 # Moments used for a cell that has reflectivity but lacks another field (e.g. beyond the
 # Doppler cut's range): a still, narrow-spectrum, well-correlated echo.
-from .beams import BeamDraw
+from .beams import BeamDraw, significant_cells
 from .fasttime import GateSum
 from .polarimetry import (
     cell_covariance,
@@ -19,6 +19,18 @@ from .polarimetry import (
 from .spectra import (
     FLOOR,
 )
+
+
+def _significant(beam: BeamDraw, gg: np.ndarray, jj: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The cells (gate, radial) worth drawing under the beam's ``support_fraction``."""
+    if beam.support_fraction <= 0 or not gg.size:
+        return gg, jj
+    rows = beam.near[jj]
+    power = np.maximum(
+        beam.cells.s_h[rows, gg] * beam.omega[0, jj], beam.cells.s_v[rows, gg] * beam.omega[1, jj]
+    )
+    keep = significant_cells(power, gg, beam.support_fraction)
+    return gg[keep], jj[keep]
 
 
 def draw_per_cell(out: np.ndarray, beam: BeamDraw) -> None:
@@ -32,6 +44,7 @@ def draw_per_cell(out: np.ndarray, beam: BeamDraw) -> None:
         return
     # Cells ordered by gate, then radial, so that each gate's sum is one segment.
     gg, jj = np.nonzero(cells.per_cell[near].T)
+    gg, jj = _significant(beam, gg, jj)
     if not gg.size:
         return
     n_g, pulses = out.shape[1], out.shape[2]
@@ -66,6 +79,7 @@ def draw_per_cell_coupled(out: np.ndarray, beam: BeamDraw) -> None:
     if cells.per_cell is None or cells.model is None:
         return
     gg, jj = np.nonzero(cells.per_cell[near].T)
+    gg, jj = _significant(beam, gg, jj)
     if not gg.size:
         return
     n_ch = beam.channels
