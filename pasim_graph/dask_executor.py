@@ -36,9 +36,11 @@ from .graph import Graph
 from .interrupt import STOPPING
 from .resources import (
     DISK_MARGIN,
+    THREAD_ADDRESS_SPACE,
     DiskFullError,
     Probe,
     ResourceError,
+    address_space_limited,
     gib,
     layout_bytes,
     memory_available,
@@ -473,13 +475,17 @@ class DaskExecutor:
         at_once = min(at_once, -(-n_beams // self.options.chunk_beams))
         beams = min(self.options.chunk_beams, n_beams)
         need = probe.shared_bytes + probe.working_bytes * beams * at_once
+        threads = ""
+        if address_space_limited() and at_once > 1:
+            need += THREAD_ADDRESS_SPACE * at_once
+            threads = f", plus {gib(THREAD_ADDRESS_SPACE * at_once)} of threads' address space"
         available = memory_available()
         if need > available:
             raise ResourceError(
                 f"this run would need about {gib(need)} of memory ({gib(probe.working_bytes)} "
                 f"per beam x {beams} beams per chunk x {at_once} chunks at once, plus "
-                f"{gib(probe.shared_bytes)} shared) and {gib(available)} is available; use a "
-                "smaller --chunk or fewer --workers"
+                f"{gib(probe.shared_bytes)} shared{threads}) and {gib(available)} is available; "
+                "use a smaller --chunk or fewer --workers"
             )
 
     def _all_beam_coords(self, static: dict, sweep: xr.Dataset) -> dict[str, Any]:

@@ -88,6 +88,19 @@ def traced(fn: Callable[[], Any]) -> tuple[Any, tuple[int, int]]:
     return result, (max(0, peak - base - kept), kept)
 
 
+#: Address space a chunk's thread maps besides the memory it uses: glibc gives each thread
+#: its own malloc arena (reserved in 64 MiB heaps on 64-bit Linux) and an 8 MiB stack. It
+#: counts only against an address-space limit (``ulimit -v``), which counts what is mapped.
+THREAD_ADDRESS_SPACE = (64 + 8) * 2**20
+
+
+def address_space_limited() -> bool:
+    """Whether this process runs under an address-space limit (``ulimit -v``)."""
+    import resource
+
+    return resource.getrlimit(resource.RLIMIT_AS)[0] != resource.RLIM_INFINITY
+
+
 def memory_available() -> int:
     """Bytes this process can still allocate: the machine's available memory, or less under
     an address-space limit (``ulimit -v``) or a cgroup's memory limit (a container's)."""
