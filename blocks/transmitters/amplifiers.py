@@ -5,20 +5,79 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
 from ..signals import PULSE
 
+#: The 10-90 % amplitude rise of a linear ramp is this fraction of the ramp's duration.
+RAMP_10_90 = 0.8
 
-class IdealAmplifier(Block):
-    """A linear amplifier: the pulse passes unchanged (peak power set by the radar equation)."""
 
-    pulse_in = Input(PULSE, doc="drive envelope")
-    pulse = Output(PULSE, doc="radiated envelope, peak amplitude 1 at peak power")
+def edge_gate(samples: int, sample_rate_hz: float, rise_s: float, fall_s: float) -> np.ndarray:
+    """Amplitude gate of a pulse with linear rise and fall edges of given 10-90 % times.
+
+    The ramps lie inside the pulse (its length is unchanged): the gate rises linearly from 0
+    at the pulse start over ``rise_s / 0.8`` (so 10 % to 90 % of the amplitude takes
+    ``rise_s``), is 1 in between, and falls to 0 at the pulse end over ``fall_s / 0.8``;
+    sample k is taken at its centre, (k + 1/2) / fs. Zero times give a gate of ones.
+    """
+    width = samples / sample_rate_hz
+    t = (np.arange(samples) + 0.5) / sample_rate_hz
+    gate = np.ones(samples)
+    if rise_s > 0:
+        gate = np.minimum(gate, t / (rise_s / RAMP_10_90))
+    if fall_s > 0:
+        gate = np.minimum(gate, (width - t) / (fall_s / RAMP_10_90))
+    return np.clip(gate, 0.0, 1.0)
+
+
+class _Amplifier(Block):
+    """A transmit amplifier's ports and the rise and fall times of its output (shared)."""
+
+    pulse_in = Input(PULSE, doc="drive envelope, peak amplitude 1")
+    pulse = Output(PULSE, doc="radiated envelope, 1 = rated peak power")
+
+    rise_time_s = Param(
+        0.0,
+        units="s",
+        min=0.0,
+        max=1e-3,
+        doc="10-90 % rise time of the radiated pulse (linear edge; 0: as the drive)",
+    )
+    fall_time_s = Param(
+        0.0,
+        units="s",
+        min=0.0,
+        max=1e-3,
+        doc="90-10 % fall time of the radiated pulse (linear edge; 0: as the drive)",
+    )
+
+    def edges(self, pulse: xr.Dataset, envelope: np.ndarray) -> xr.Dataset:
+        """The amplified envelope with the output's rise and fall edges, as a pulse."""
+        rise, fall = self.p["rise_time_s"], self.p["fall_time_s"]
+        if rise > 0 or fall > 0:
+            fs = float(pulse.attrs["sample_rate_hz"])
+            ramps = (rise + fall) / RAMP_10_90
+            if ramps > envelope.size / fs:
+                raise ValueError(
+                    f"block '{self.name}': rise_time_s + fall_time_s = {rise + fall:g} s need "
+                    f"linear edges of {ramps:g} s, longer than the {envelope.size / fs:g} s pulse"
+                )
+            envelope = envelope * edge_gate(envelope.size, fs, rise, fall)
+        return pulse.copy(data={"envelope": envelope})
+
+
+class IdealAmplifier(_Amplifier):
+    """A linear amplifier: the pulse passes unchanged (peak power set by the radar equation),
+    but for the output's rise and fall edges when they are set."""
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        return {"pulse": inputs["pulse_in"]}
+        ds = inputs["pulse_in"]
+        if self.p["rise_time_s"] == 0 and self.p["fall_time_s"] == 0:
+            return {"pulse": ds}
+        return {"pulse": self.edges(ds, ds["envelope"].values)}
 
 
 def saleh(
@@ -29,16 +88,15 @@ def saleh(
     return alpha_a * r / (1.0 + beta_a * r2), alpha_phi * r2 / (1.0 + beta_phi * r2)
 
 
-class SalehAmplifier(Block):
+class SalehAmplifier(_Amplifier):
     """A solid-state HPA with Saleh AM/AM and AM/PM distortion (paper eq. 1-4).
 
     The drive envelope is scaled so its peak sits ``input_backoff_db`` below the input that
     saturates the amplifier (r_sat = 1/sqrt(beta_a)); the output is normalised to the saturated
-    output amplitude, so peak amplitude 1 means the radar's rated peak power.
+    output amplitude, so peak amplitude 1 means the radar's rated peak power. The rise and
+    fall edges (``rise_time_s``, ``fall_time_s``) gate the output, as the switching of the
+    amplifier's supply would.
     """
-
-    pulse_in = Input(PULSE, doc="drive envelope, peak amplitude 1")
-    pulse = Output(PULSE, doc="distorted envelope, 1 = saturated output")
 
     alpha_a = Param(2.1587, min=0.0, doc="AM/AM gain coefficient")
     beta_a = Param(1.1517, min=1e-9, doc="AM/AM compression coefficient")
@@ -62,7 +120,7 @@ class SalehAmplifier(Block):
         )
         a_max = self.p["alpha_a"] * r_sat / 2.0  # A(r_sat)
         out = amp / a_max * np.exp(1j * (np.angle(drive) + phase))
-        return {"pulse": ds.copy(data={"envelope": out})}
+        return {"pulse": self.edges(ds, out)}
 
 
 def rapp(r: np.ndarray, smoothness: float) -> np.ndarray:
@@ -74,7 +132,7 @@ def rapp(r: np.ndarray, smoothness: float) -> np.ndarray:
     return r / (1.0 + r ** (2.0 * smoothness)) ** (1.0 / (2.0 * smoothness))
 
 
-class RappAmplifier(Block):
+class RappAmplifier(_Amplifier):
     """A solid-state HPA after Rapp (1991): AM/AM compression, no AM/PM.
 
     The drive is scaled so its peak sits ``input_backoff_db`` below the input saturation
@@ -82,11 +140,8 @@ class RappAmplifier(Block):
     overdrive), and the output is normalised to the saturated output, so amplitude 1 is the
     radar's rated peak power (the weather channel's ``peak_power_w``). At 0 dB the peak comes
     out at 2^(-1/(2p)) in amplitude, 3.01 / p dB below the rated power. The phase passes
-    unchanged: the Rapp model has no AM/PM.
+    unchanged: the Rapp model has no AM/PM. Rise and fall edges as ``amplifier.saleh``.
     """
-
-    pulse_in = Input(PULSE, doc="drive envelope, peak amplitude 1")
-    pulse = Output(PULSE, doc="compressed envelope, 1 = saturated output")
 
     smoothness = Param(
         2.0, min=0.1, max=100.0, doc="Rapp smoothness p of the knee (large: hard limiter)"
@@ -103,4 +158,4 @@ class RappAmplifier(Block):
         ds = inputs["pulse_in"]
         drive = ds["envelope"].values * 10 ** (-self.p["input_backoff_db"] / 20)
         out = rapp(np.abs(drive), self.p["smoothness"]) * np.exp(1j * np.angle(drive))
-        return {"pulse": ds.copy(data={"envelope": out})}
+        return {"pulse": self.edges(ds, out)}
