@@ -143,6 +143,8 @@ class PhaseNoise(Block):
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         iq = inputs["iq_in"]
         pulses = iq.shape[2]
+        if pulses == 0 and iq.shape[1] == 0:
+            return {"iq": iq}
         if pulses == 0:
             raise ValueError(
                 f"block '{self.name}': the I/Q cube has no pulses (weather method 'expected'); "
