@@ -70,9 +70,11 @@ def test_check_gives_the_engines_problems_with_the_saved_lines():
 def test_swap_options_offer_exactly_the_types_that_fit():
     options = docs.swap_options(generic(), "hpa")["options"]
     fits = sorted(o["type"] for o in options if o["fits"])
-    # Every other amplifier of the library, and nothing else, fits the amplifier's wires.
+    # Every other amplifier of the library, the other pulse-to-pulse transmitter stage (the
+    # power divider), and nothing else, fits the amplifier's wires.
     amplifiers = sorted(n for n in registry.names() if n.startswith("amplifier."))
-    assert fits == [a for a in amplifiers if a != "amplifier.saleh"]
+    stages = ["transmitter.power_divider"]
+    assert fits == sorted([a for a in amplifiers if a != "amplifier.saleh"] + stages)
     assert "amplifier.ideal" in fits
     saleh_params = {"input_backoff_db"}
     ideal = next(o for o in options if o["type"] == "amplifier.ideal")

@@ -107,11 +107,8 @@ def transmit_pulses(graph: Graph, rate_hz: float | None) -> tuple[xr.Dataset, xr
         raise ChainError(f"several final amplifiers ({', '.join(last)}): which is radiated?")
     source = last[0] if last else chain.waveforms[0]
     port = next(p.name for p in graph.classes[source].outputs.values() if p.type.kind == PULSE_KIND)
-    drive_source = chain.waveforms[0]
-    drive_port = next(
-        p.name for p in graph.classes[drive_source].outputs.values() if p.type.kind == PULSE_KIND
-    )
-    return out[True][(drive_source, drive_port)], out[False][(source, port)], chain
+    # The drive: what the same stage emits when every amplifier is a wire.
+    return out[True][(source, port)], out[False][(source, port)], chain
 
 
 def graph_peak_power(graph: Graph) -> float | None:
