@@ -26,8 +26,18 @@ def test_study_validates(path):
     runs, problems = plan_runs(study)
     assert not problems, "\n".join(map(str, problems))
     points = sum(len(study.points(s.name)) for s in study.systems) * len(study.cases)
-    # Per point: an estimate and an expected level per seed, and the two budget references.
-    assert len(runs) == points * (2 * len(study.seeds) + 2)
+    # Per point: an estimate and an expected level per seed, and the two budget references;
+    # at an unswept point, an estimate under each other calibration the antenna offers.
+    calibrations = [r for r in runs if r.kind.startswith("calibration_")]
+    assert len(runs) - len(calibrations) == points * (2 * len(study.seeds) + 2)
+    assert all(r.point == {} and r.seed == study.seeds[0] for r in calibrations)
+
+
+def test_the_paper_study_runs_each_array_under_boresight_calibration_too():
+    runs, _ = plan_runs(read_study(GRAPHS / "paper_study.yaml"))
+    kinds = {(r.system, r.kind) for r in runs if r.kind.startswith("calibration_")}
+    # The generic radar's pencil beam has no calibration choice; the arrays calibrate per beam.
+    assert kinds == {(s, "calibration_boresight") for s in ("atd", "cppar2", "cppar10")}
 
 
 def test_the_bits_study_sweeps_the_phase_shifter_bits():

@@ -164,11 +164,14 @@ def test_a_sweep_draws_its_design_curve():
     assert sweep_figure({"g": {"conv": {"-": {"DBZH": entry(2.0)}}}}, "g", "conv") is None
 
 
-def test_the_report_in_chromium(study):
+def open_in_chromium(report: Path) -> dict:
+    """Open ``report`` in Debian's Chromium (skip without it): console errors, failed requests,
+    each image's decoded width, and the rows of the summary and budget tables."""
     if not CHROMIUM.exists():
         pytest.skip("Debian's chromium is not installed (/usr/bin/chromium)")
     sync_api = pytest.importorskip("playwright.sync_api")
     errors: list[str] = []
+    failed: list[str] = []
     with sync_api.sync_playwright() as pw:
         browser = pw.chromium.launch(
             executable_path=str(CHROMIUM),
@@ -179,18 +182,25 @@ def test_the_report_in_chromium(study):
             tab = browser.new_page()
             tab.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
             tab.on("pageerror", lambda e: errors.append(str(e)))
-            failed: list[str] = []
             tab.on("requestfailed", lambda r: failed.append(r.url))
-            tab.goto((study / REPORT).resolve().as_uri(), wait_until="load")
+            tab.goto(report.resolve().as_uri(), wait_until="load")
             widths = tab.evaluate(
                 "Promise.all([...document.images].map(i => i.decode().then(() => i.naturalWidth)))"
             )
-            summary = tab.locator("table.summary tbody tr").count()
-            budget_rows = tab.locator("table.budget tbody tr").count()
-            budget_img = tab.locator("img[alt*='budget']").count()
+            alts = tab.evaluate("[...document.images].map(i => i.alt)")
+            rows = {
+                t: tab.locator(f"table.{t} tbody tr").count()
+                for t in ("summary", "budget", "calibration")
+            }
         finally:
             browser.close()
-    assert errors == [] and failed == []
-    assert widths and all(w > 0 for w in widths)
-    assert summary == len(FIELDS)
-    assert budget_rows == 2 * len(FIELDS) and budget_img == 1
+    return {"errors": errors, "failed": failed, "widths": widths, "alts": alts, "rows": rows}
+
+
+def test_the_report_in_chromium(study):
+    seen = open_in_chromium(study / REPORT)
+    assert seen["errors"] == [] and seen["failed"] == []
+    assert seen["widths"] and all(w > 0 for w in seen["widths"])
+    assert seen["rows"]["summary"] == len(FIELDS)
+    assert seen["rows"]["budget"] == 2 * len(FIELDS)
+    assert sum("budget" in a for a in seen["alts"]) == 1

@@ -103,7 +103,10 @@ class StudyCommand:
             raise UserError(str(exc)) from None
 
         def rescore() -> None:
-            write_scores(out, score_study(study, runs, out, state["beamwidths"]))
+            write_scores(
+                out,
+                score_study(study, runs, out, state["beamwidths"], state.get("patterns", {})),
+            )
 
         print(f"study {args.study}: {len(runs)} runs into {out}", file=sys.stderr)
         try:

@@ -10,6 +10,11 @@ and the three noise-free references the error budget needs, all with the weather
 - ``short_pulse``: that and every waveform replaced by a short rectangular pulse
   (:data:`SHORT_PULSE_S`), so that the range response is close to an impulse.
 
+A system whose antenna offers a choice of ``calibration`` (per-beam or boresight radar
+constant) is also run, at its unswept point and first seed, as an estimate under each other
+choice (``calibration_CHOICE``): the per-azimuth ZDR bias of the paper's figures 9e-11e under
+both calibrations.
+
 Reference runs score every gate with a truth (scorer and processor SNR thresholds at their
 floors), so that the estimate's scored gates all have a reference value.
 """
@@ -31,6 +36,7 @@ SHORT_PULSE_S = 2e-7  # 30 m of range resolution: far below the 250 m truth gate
 SHORT_PULSE_RATE_HZ = 5e7
 PLACEHOLDER_BEAMWIDTH_DEG = 1.0
 KINDS = ("estimate", "expected", "sidelobe_free", "short_pulse")
+CALIBRATION = "calibration_"  # the kind of a run under another calibration: calibration_CHOICE
 
 
 @dataclass
@@ -52,7 +58,8 @@ class Run:
     @property
     def key(self) -> str:
         """The run's folder under the study's ``runs/``."""
-        seed = f"seed{self.seed}" if self.kind in ("estimate", "expected") else "ref"
+        seeded = self.kind in ("estimate", "expected") or self.kind.startswith(CALIBRATION)
+        seed = f"seed{self.seed}" if seeded else "ref"
         return f"{self.system}/{self.case}/{self.point_name}/{self.kind}-{seed}.zarr"
 
     def graph(self, beamwidth_deg: float | None = None) -> Graph:
@@ -118,6 +125,20 @@ def _method_overrides(graph: Graph) -> dict[str, Any]:
         if q is not None and q.choices and "expected" in q.choices:
             out[f"{name}.method"] = "expected"
     return out
+
+
+def calibration_choices(graph: Graph) -> tuple[str, dict[str, dict[str, Any]]]:
+    """The calibration a graph's antennas use, and the overrides for each other choice."""
+    names = [
+        n
+        for n in _kinds_of(graph, "pattern", "outputs")
+        if (q := graph.classes[n].params.get("calibration")) is not None and q.choices
+    ]
+    if not names:
+        return "", {}
+    own = str(graph.value(names[0], "calibration"))
+    choices = graph.classes[names[0]].params["calibration"].choices or ()
+    return own, {str(c): {f"{n}.calibration": c for n in names} for c in choices if str(c) != own}
 
 
 def _floors(graph: Graph) -> dict[str, Any]:
@@ -215,6 +236,12 @@ def _system_runs(
     runs += [
         Run(system.name, case.name, point, "expected", s, spec, reference) for s in study.seeds
     ]
+    if not point:
+        for choice, more in calibration_choices(graph)[1].items():
+            kind = f"{CALIBRATION}{choice}"
+            runs.append(
+                Run(system.name, case.name, point, kind, study.seeds[0], spec, overrides | more)
+            )
     for kind, short in (("sidelobe_free", False), ("short_pulse", True)):
         vspec, antennas, source = _variant(spec, graph, short)
         if not antennas:

@@ -9,7 +9,6 @@ script, font or image from anywhere. The HTML comes from a jinja2 template
 
 from __future__ import annotations
 
-import base64
 import json
 import math
 import time
@@ -19,24 +18,20 @@ from typing import Any
 
 import numpy as np
 
+from .design_figures import (
+    PART_COLOURS,
+    PART_LABELS,
+    PARTS,
+    calibration_figure,
+    calibration_rows,
+    sweep_figure,
+)
+from .figures import Figure, canvas, uri
 from .runner import MANIFEST, StudyError, write_atomic
 from .scores import FIELDS
 
 REPORT = "report.html"
 TEMPLATES = Path(__file__).parent / "templates"
-PARTS = ("main_lobe", "range", "sidelobes", "estimator_noise")
-PART_LABELS = {
-    "main_lobe": "main lobe (beam smoothing)",
-    "range": "range response",
-    "sidelobes": "sidelobes",
-    "estimator_noise": "estimator noise",
-}
-PART_COLOURS = {
-    "main_lobe": "#1f77b4",
-    "range": "#9467bd",
-    "sidelobes": "#d62728",
-    "estimator_noise": "#ff7f0e",
-}
 PART_TEXT = {
     "main_lobe": (
         "the weather averaged over the main lobe of a sidelobe-free beam of the system's own "
@@ -67,36 +62,14 @@ HIST_BINS = 60
 
 
 @dataclass
-class Figure:
-    title: str
-    uri: str
-    alt: str
-    caption: str = ""
-
-
-@dataclass
 class CaseReport:
     name: str
     points: list[str]
     table: list[dict[str, Any]] = field(default_factory=list)
     rankings: list[dict[str, Any]] = field(default_factory=list)
     budget_rows: list[dict[str, Any]] = field(default_factory=list)
+    calibration_rows: list[dict[str, Any]] = field(default_factory=list)
     figures: dict[str, list[Figure]] = field(default_factory=dict)
-
-
-def _canvas(width: float, height: float) -> Any:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure as MplFigure
-
-    fig = MplFigure(figsize=(width, height), layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def _uri(fig: Any, dpi: int = 72) -> str:
-    from ..products.plot import png_bytes
-
-    return "data:image/png;base64," + base64.b64encode(png_bytes(fig, dpi)).decode("ascii")
 
 
 def _fmt(x: Any, digits: int = 3) -> str:
@@ -111,20 +84,6 @@ def _ci(ci: Any) -> str:
     if not ci or any(v is None for v in ci):
         return "[n/a]"
     return f"[{_fmt(ci[0])}, {_fmt(ci[1])}]"
-
-
-def _point_value(point: str) -> dict[str, Any]:
-    """``"a.b=3,c.d=x"`` -> {"a.b": 3.0, "c.d": "x"} (numbers as floats)."""
-    out: dict[str, Any] = {}
-    if point == "-":
-        return out
-    for part in point.split(","):
-        key, _, value = part.partition("=")
-        try:
-            out[key] = float(value)
-        except ValueError:
-            out[key] = value
-    return out
 
 
 def _store(out: Path, system: str, case: str, point: str, seed: int) -> Path:
@@ -252,7 +211,7 @@ def budget_figure(scores: dict[str, Any], systems: list[str], case: str) -> Figu
     ncol = 3
     nrow = math.ceil(len(names) / ncol)
     width = max(3, len(max(bars.values(), key=len)))
-    fig = _canvas(min(16.0, 1.6 * width * ncol), 3.4 * nrow)
+    fig = canvas(min(16.0, 1.6 * width * ncol), 3.4 * nrow)
     axes = fig.subplots(nrow, ncol, squeeze=False).ravel()
     for ax, name in zip(axes, names, strict=False):
         units = (scores[systems[0]].get(case, {}).get("-", {}).get(name) or {}).get("units", "")
@@ -275,7 +234,7 @@ def budget_figure(scores: dict[str, Any], systems: list[str], case: str) -> Figu
     fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize=9)
     return Figure(
         "Error budget",
-        _uri(fig),
+        uri(fig),
         f"stacked error-variance budget of every system for {', '.join(names)}",
         "Each bar stacks the squares of the parts (their variances add when the parts are "
         "uncorrelated); the black tick is the measured total variance.",
@@ -343,7 +302,7 @@ def ppi_figure(name: str, panels: list[tuple[str, Any]]) -> Figure:
     vmin, vmax = _limits([s for _, s in panels], name)
     truth_sweep = panels[0][1]
     cols = [("truth", truth_sweep, f"truth_{name}")] + [(n, s, name) for n, s in panels]
-    fig = _canvas(3.3 * len(cols) + 0.8, 3.6)
+    fig = canvas(3.3 * len(cols) + 0.8, 3.6)
     axes = fig.subplots(1, len(cols), squeeze=False)[0]
     extent = None
     mesh = None
@@ -371,7 +330,7 @@ def ppi_figure(name: str, panels: list[tuple[str, Any]]) -> Figure:
         fig.colorbar(mesh, ax=list(axes), label=f"{name} ({style.units})", shrink=0.9)
     return Figure(
         f"{name}: {style.label}",
-        _uri(fig),
+        uri(fig),
         f"PPI of {name}: truth and every system's estimate",
         f"Shared limits {vmin:g} to {vmax:g} {style.units}; grey: no data.",
     )
@@ -384,7 +343,7 @@ def histogram_figure(panels: list[tuple[str, Any]]) -> Figure:
     from ..products.plot import STYLES
 
     names = [n for n in FIELDS if any(f"error_{n}" in s for _, s in panels)]
-    fig = _canvas(2.9 * len(panels) + 0.6, 2.6 * len(names))
+    fig = canvas(2.9 * len(panels) + 0.6, 2.6 * len(names))
     axes = fig.subplots(len(names), len(panels), squeeze=False)
     for row, name in zip(axes, names, strict=True):
         lo, hi = _limits([s for _, s in panels], name)
@@ -419,59 +378,9 @@ def histogram_figure(panels: list[tuple[str, Any]]) -> Figure:
         row[0].set_ylabel("estimate", fontsize=8)
     return Figure(
         "Truth against estimate",
-        _uri(fig),
+        uri(fig),
         "two-dimensional histograms of truth against estimate for every system and moment",
         "Scored gates only, counts on a log scale; the red line is estimate = truth.",
-    )
-
-
-def sweep_figure(scores: dict[str, Any], system: str, case: str) -> Figure | None:
-    """Each moment's std against the swept parameter, with intervals and requirement."""
-    points = {p: f for p, f in scores[system].get(case, {}).items() if p != "-"}
-    if len(points) < 2:
-        return None
-    params = _point_value(next(iter(points)))
-    xkey = next((k for k, v in params.items() if isinstance(v, float)), None)
-    if xkey is None:
-        return None
-    others = [k for k in params if k != xkey]
-    names = [n for n in FIELDS if any(n in f for f in points.values())]
-    ncol = 3
-    nrow = math.ceil(len(names) / ncol)
-    fig = _canvas(14.0, 3.2 * nrow)
-    axes = fig.subplots(nrow, ncol, squeeze=False).ravel()
-    for ax, name in zip(axes, names, strict=False):
-        series: dict[str, list[tuple[float, dict[str, Any]]]] = {}
-        for point, fields in points.items():
-            if name not in fields:
-                continue
-            pv = _point_value(point)
-            label = ",".join(f"{k}={pv[k]}" for k in others) or "std"
-            series.setdefault(label, []).append((float(pv[xkey]), fields[name]))
-        req = None
-        for label, pts in series.items():
-            pts.sort(key=lambda p: p[0])
-            xs = np.array([p[0] for p in pts])
-            ys = np.array([p[1]["std"] if p[1]["std"] is not None else np.nan for p in pts])
-            lo = np.array([(p[1]["std_ci"] or [None])[0] or np.nan for p in pts])
-            hi = np.array([(p[1]["std_ci"] or [None, None])[1] or np.nan for p in pts])
-            yerr = np.vstack([np.clip(ys - lo, 0, None), np.clip(hi - ys, 0, None)])
-            ax.errorbar(xs, ys, yerr=np.nan_to_num(yerr), marker="o", capsize=3, label=label)
-            req = pts[0][1]["requirement_std"]
-            units = pts[0][1].get("units", "")
-        if req is not None:
-            ax.axhline(req, color="red", ls="--", lw=1, label=f"requirement {req:g}")
-            ax.set_ylabel(f"std against raw ({units})", fontsize=8)
-        ax.set_xlabel(xkey, fontsize=8)
-        ax.set_title(name, fontsize=10)
-        ax.legend(fontsize=7)
-    for ax in axes[len(names) :]:
-        ax.set_visible(False)
-    return Figure(
-        f"{system}: std against {xkey}",
-        _uri(fig),
-        f"design curves of {system}: each moment's std against {xkey}",
-        "95 % intervals as error bars; the dashed red line is the NEXRAD requirement.",
     )
 
 
@@ -514,7 +423,13 @@ def build(out: Path) -> dict[str, Any]:
         rep.figures["ppi"] = [ppi_figure(n, panels) for n in FIELDS if panels] if panels else []
         rep.figures["hist"] = [histogram_figure(panels)] if panels else []
         rep.figures["sweeps"] = [
-            f for f in (sweep_figure(scores, s, case) for s in systems) if f is not None
+            f for s in systems for f in (sweep_figure(scores, s, case),) if f is not None
+        ]
+        rep.calibration_rows = calibration_rows(scores, systems, case)
+        rep.figures["calibration"] = [
+            calibration_figure(s, cal)
+            for s in systems
+            if (cal := (scores[s].get(case, {}).get("-", {}).get("ZDR") or {}).get("calibration"))
         ]
     runs = [
         {"key": k, "kind": v.get("kind", ""), "seconds": v.get("seconds")}

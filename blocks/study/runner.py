@@ -112,6 +112,33 @@ def measure_beamwidth(run: Run, estimate: Run, sector: tuple[float, float], el: 
     return float(math.sqrt(figures["beamwidth_az_deg"] * figures["beamwidth_el_deg"]))
 
 
+def ensure_patterns(
+    study: Study, runs: list[Run], out: Path, state: dict[str, Any], log: Callable[[str], None]
+) -> None:
+    """Measure the antenna figures (:mod:`.patterns`) of every system, case and point whose
+    first-seed estimate is finished, once: kept in the manifest under ``patterns``."""
+    from pasim_graph.store import open_sweep
+
+    from .patterns import point_patterns
+
+    patterns = state.setdefault("patterns", {})
+    cases = {c.name: c for c in study.cases}
+    for run in runs:
+        bkey = f"{run.system}/{run.case}/{run.point_name}"
+        if run.kind != "estimate" or run.seed != study.seeds[0] or bkey in patterns:
+            continue
+        path = out / "runs" / run.key
+        if not finished(path):
+            continue
+        sweep, _ = open_sweep(path)
+        t0 = time.perf_counter()
+        patterns[bkey] = point_patterns(
+            run.graph(), sweep["azimuth"].values, cases[run.case].elevation, run.seed
+        )
+        save(out, state)
+        log(f"measured the antenna of {bkey}: {time.perf_counter() - t0:.1f} s")
+
+
 def execute(
     study: Study,
     runs: list[Run],
@@ -146,6 +173,7 @@ def execute(
     kept = len(runs) - len(todo)
     if kept:
         log(f"keeping {kept} finished run(s) of {len(runs)}")
+    ensure_patterns(study, runs, out, state, log)
     try:
         for i, run in enumerate(todo, 1):
             path = out / "runs" / run.key
@@ -198,6 +226,7 @@ def execute(
             elapsed = time.perf_counter() - t_start
             left = elapsed / i * (len(todo) - i)
             log(f"[{kept + i}/{len(runs)}] {run.key}: {dt:.1f} s; about {left:.0f} s left")
+            ensure_patterns(study, runs, out, state, log)
             after_run()
     finally:
         if cluster is not None:

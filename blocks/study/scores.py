@@ -23,8 +23,9 @@ import numpy as np
 from pasim_graph.serialize import json_safe
 
 from ..signals import MOMENT_FIELDS
+from .intervals import t_interval
 from .model import Study
-from .plan import Run
+from .plan import CALIBRATION, Run
 
 FIELDS = MOMENT_FIELDS
 BOOTSTRAP = 1000
@@ -117,14 +118,6 @@ def bootstrap(d: np.ndarray, block: int, seed: int = 0) -> tuple[list[float], li
     return [float(v) for v in np.percentile(std, q)], [float(v) for v in np.percentile(bias, q)]
 
 
-def t_interval(values: list[float]) -> list[float]:
-    from scipy import stats
-
-    v = np.asarray(values, dtype=float)
-    half = stats.t.ppf(0.975, v.size - 1) * v.std(ddof=1) / math.sqrt(v.size)
-    return [float(v.mean() - half), float(v.mean() + half)]
-
-
 def statistics(
     per_seed: list[np.ndarray], block: int, requirement: tuple[float, float]
 ) -> dict[str, Any]:
@@ -162,7 +155,11 @@ def statistics(
 
 
 def budget(
-    est: np.ndarray, own: np.ndarray, free: np.ndarray, short: np.ndarray, period: float | None
+    est: np.ndarray,
+    own: np.ndarray,
+    free: np.ndarray,
+    short: np.ndarray,
+    period: float | None,
 ) -> dict[str, Any]:
     """The error against the raw gates split along est - raw = (est - own expected) +
     (own - sidelobe-free) + (sidelobe-free - short pulse) + (short pulse - raw), on the gates
@@ -217,9 +214,14 @@ def _block_beams(azimuth: np.ndarray, beamwidth: float | None) -> int:
 
 
 def score_study(
-    study: Study, runs: list[Run], out: Path, beamwidths: dict[str, float]
+    study: Study,
+    runs: list[Run],
+    out: Path,
+    beamwidths: dict[str, float],
+    patterns: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """Scores of every system, case and point whose runs are all finished."""
+    """Scores of every system, case and point whose runs are all finished; ``patterns``: the
+    antenna figures the runner measured (:mod:`.patterns`), by ``SYSTEM/CASE/POINT``."""
     from .runner import finished
 
     errors: dict[str, Errors] = {}
@@ -266,10 +268,25 @@ def score_study(
                 entry = _score_point(
                     study, system.name, case.name, point, find, get, common, beamwidths, notes
                 )
+                key = f"{system.name}/{case.name}/{point}"
+                if entry is not None and "ZDR" in entry:
+                    calibrated = [
+                        r
+                        for r in runs
+                        if (r.system, r.case, r.point_name) == (system.name, case.name, point)
+                        and r.kind.startswith(CALIBRATION)
+                    ]
+                    entry["ZDR"]["calibration"] = _calibration(
+                        find(system.name, case.name, point, "estimate", study.seeds[0]),
+                        calibrated,
+                        get,
+                        (patterns or {}).get(key) or {},
+                    )
                 if entry is not None:
                     result.setdefault(system.name, {}).setdefault(case.name, {})[point] = entry
     result["_study"] = {
         "format": "pasim-study-scores/1",
+        "patterns": patterns or {},
         "study": study.file,
         "title": study.title,
         "reference_system": study.reference,
@@ -279,6 +296,31 @@ def score_study(
         "rankings": rankings(study, result),
     }
     return result
+
+
+def _calibration(
+    estimate: Run | None, calibrated: list[Run], get: Any, pattern: dict[str, Any]
+) -> dict[str, Any] | None:
+    """A point's ZDR bias along azimuth under each calibration, against its H/V ratio (None:
+    the antenna has no calibration choice, or a run or the pattern is missing)."""
+    from .calibration import azimuth_profile, zdr_calibration
+
+    own = pattern.get("calibration")
+    if not calibrated or estimate is None or not own or "hv_ratio_db" not in pattern:
+        return None
+    profiles = {}
+    for kind, run in [(f"{CALIBRATION}{own}", estimate)] + [(r.kind, r) for r in calibrated]:
+        e = get(run)
+        if e is None or "ZDR" not in e.fields:
+            return None
+        profiles[kind.removeprefix(CALIBRATION)] = azimuth_profile(e.fields["ZDR"])
+    # The ratio the broadside radar constant leaves: relative to the broadside one.
+    ratio = np.asarray(pattern["hv_ratio_db"], dtype=np.float64)
+    ratio = ratio - float(pattern.get("hv_ratio_broadside_db", 0.0))
+    azimuth = np.asarray(pattern["azimuth_deg"], dtype=np.float64)
+    if any(p.shape != ratio.shape for p in profiles.values()):
+        return None
+    return zdr_calibration(own, profiles, azimuth, ratio)
 
 
 def _score_point(

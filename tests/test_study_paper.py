@@ -1,0 +1,70 @@
+"""The paper study end to end (slow: about 11 min on 2 cores, so ``-m slow`` only).
+``PASIM_PAPER_STUDY`` names a finished study folder of ``graphs/paper_study.yaml`` to check
+instead of running it.
+
+Against the paper (section 3.3, figures 9e-11e) and theory: a planar face's ZDR bias under a
+boresight radar constant follows its two-way H/V ratio dB for dB, a cylinder's stays flat, a
+radar constant per beam flattens the face's.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+from pasim_graph.cli import main
+
+GRAPHS = Path(__file__).resolve().parent.parent / "graphs"
+pytestmark = pytest.mark.slow
+
+
+def _study(tmp_path_factory: pytest.TempPathFactory, name: str, env: str) -> dict:
+    given = os.environ.get(env)
+    if given:
+        out = Path(given)
+    else:
+        out = tmp_path_factory.mktemp(name) / "out"
+        assert main(["study", str(GRAPHS / f"{name}.yaml"), "--out", str(out)]) == 0
+    return {"out": out, "scores": json.loads((out / "scores.json").read_text())}
+
+
+@pytest.fixture(scope="module")
+def paper(tmp_path_factory):
+    return _study(tmp_path_factory, "paper_study", "PASIM_PAPER_STUDY")
+
+
+def cal(paper: dict, system: str) -> dict:
+    return paper["scores"][system]["convective"]["-"]["ZDR"]["calibration"]
+
+
+def test_the_atd_bias_follows_its_hv_ratio_under_boresight_calibration(paper):
+    atd = cal(paper, "atd")
+    bore = atd["against_ratio"]["boresight"]
+    assert atd["own"] == "per_beam" and not atd["hv_ratio_flat"]
+    assert bore["correlation"] >= 0.9
+    assert bore["slope"] == pytest.approx(1.0, abs=0.15)  # dB of bias per dB of ratio
+    # Per-beam calibration flattens it.
+    per_beam = atd["against_ratio"]["per_beam"]
+    assert per_beam["azimuth_std_db"] < 0.3 * bore["azimuth_std_db"]
+    assert abs(per_beam["slope"]) < 0.15
+
+
+@pytest.mark.parametrize("system", ["cppar2", "cppar10"])
+def test_the_cylinders_bias_stays_flat(paper, system):
+    c = cal(paper, system)
+    assert c["hv_ratio_flat"]  # every beam at the broadside of its sector
+    atd = cal(paper, "atd")["against_ratio"]["boresight"]
+    bore = c["against_ratio"]["boresight"]
+    assert bore["azimuth_std_db"] < 0.5 * atd["azimuth_std_db"]
+    assert (
+        abs(bore["mean_db"]) < 0.3 < abs(cal(paper, "atd")["against_ratio"]["boresight"]["mean_db"])
+    )
+
+
+def test_the_paper_report_draws_a_zdr_figure_per_calibrated_system(paper):
+    html = (paper["out"] / "report.html").read_text()
+    for system in ("atd", "cppar2", "cppar10"):
+        assert f'alt="ZDR bias of {system} along azimuth' in html
