@@ -8,12 +8,14 @@ raises quantisation lobes), against ``pasim pattern`` and against reductions of 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 import xarray as xr
 from pasim_blocks.study.calibration import MIN_GATES
+from pasim_blocks.study.sweeps import NEGLIGIBLE_SHARE, monotone, stops_mattering
 
 from pasim_graph.cli import main
 
@@ -99,10 +101,80 @@ def test_the_hv_ratio_is_the_one_pasim_pattern_measures(study, capsys, beam):
     assert cal["hv_ratio_db"][beam] == pytest.approx(ratio - pattern["hv_ratio_broadside_db"])
 
 
+def test_fewer_bits_raise_the_peak_sidelobe(study, capsys):
+    """Theory: b-bit phase shifters on a progressive phase make periodic errors whose
+    quantisation lobes stand near -6 b dB (Mailloux); 8 bits leave the continuous-phase array's
+    sidelobes. The continuous array measured independently with ``pasim pattern``."""
+    sweep = scores(study)["_study"]["sweeps"]["planar_bits"]["convective"]
+    assert sweep["parameter"] == "antenna.phase_bits" and sweep["values"] == [2.0, 3.0, 8.0]
+    two, three, eight = sweep["peak_sidelobe_db"]
+    assert two > three > eight
+    assert sweep["peak_sidelobe_trend"] == {"monotone": True, "direction": "falling", "against": []}
+    patterns = scores(study)["_study"]["patterns"]["planar_bits/convective/antenna.phase_bits=8"]
+    continuous = []
+    for az in patterns["sidelobe_beams_deg"]:
+        steer = f"{az - FACE_DEG:.6f},0.5"
+        graph = str(FIX / "small_planar.yaml")
+        assert (
+            main(["pattern", graph, "--steer", steer, "--json", "--set", "antenna.phase_bits=0"])
+            == 0
+        )
+        continuous.append(json.loads(capsys.readouterr().out)["peak_sidelobe_db"])
+    assert eight == pytest.approx(float(np.mean(continuous)), abs=1.0)
+    assert two > eight + 10.0  # 2-bit lobes near -12 dB against sidelobes near -28 dB
+
+
+def test_the_sweep_summary_holds_each_points_budget(study):
+    s = scores(study)
+    sweep = s["_study"]["sweeps"]["planar_bits"]["convective"]
+    for name, f in sweep["fields"].items():
+        for i, b in enumerate((2, 3, 8)):
+            budget = s["planar_bits"]["convective"][f"antenna.phase_bits={b}"][name]["budget"]
+            parts = [budget[k] for k in ("estimator_noise", "sidelobes", "range", "main_lobe")]
+            share = budget["sidelobes"] ** 2 / np.sum(np.square(parts))
+            assert f["sidelobes"][i] == budget["sidelobes"]
+            assert f["sidelobes_share"][i] == pytest.approx(share)
+            lo, hi = f["sidelobes_ci"][i]
+            assert lo <= budget["sidelobes"] <= hi
+        stop = f["stops_mattering"]
+        assert stop["matters_at"] == [
+            x
+            for x, sh in zip((2, 3, 8), f["sidelobes_share"], strict=True)
+            if sh >= NEGLIGIBLE_SHARE
+        ]
+
+
 def test_the_report_draws_and_says_it(study):
     html = (study / "report.html").read_text()
     assert 'alt="ZDR bias of planar along azimuth' in html
     assert 'table class="calibration"' in html
+    assert 'alt="peak sidelobe and error budget of planar_bits' in html
+    assert "Peak sidelobe: falls from" in html
+    assert "DBZH, sidelobe part of the budget" in html
+
+
+def test_monotone_within_intervals_by_construction():
+    ci = [[9.0, 11.0], [7.0, 9.5], [4.0, 6.0]]
+    assert monotone([10.0, 8.0, 5.0], ci) == {
+        "monotone": True,
+        "direction": "falling",
+        "against": [],
+    }
+    # A step up whose interval clears the one before it goes against a falling trend...
+    assert monotone([10.0, 13.0, 5.0], [[9, 11], [12, 14], [4, 6]])["against"] == [0]
+    # ...but not when the intervals overlap.
+    assert monotone([10.0, 10.5, 5.0], [[9, 11], [9.5, 11.5], [4, 6]])["monotone"] is True
+    assert monotone([math.nan, 1.0], [[math.nan] * 2, [0.5, 1.5]])["monotone"] is None
+
+
+def test_stops_mattering_by_construction():
+    t = NEGLIGIBLE_SHARE
+    got = stops_mattering([3, 4, 5, 6], [4 * t, 2 * t, t / 2, t / 4])
+    assert got["value"] == 5 and got["matters_at"] == [3, 4]
+    assert stops_mattering([3, 4], [t / 2, t / 3])["value"] == 3  # negligible everywhere
+    assert stops_mattering([3, 4], [3 * t, 2 * t])["value"] is None  # matters everywhere
+    # A share that shrinks as the parameter falls (a larger cylinder, say) is walked the other way.
+    assert stops_mattering([1, 2, 3], [t / 4, t / 2, 3 * t])["value"] == 2
 
 
 def test_the_new_figures_in_chromium(study):
@@ -111,3 +183,4 @@ def test_the_new_figures_in_chromium(study):
     assert seen["widths"] and all(w > 0 for w in seen["widths"])
     assert seen["rows"]["calibration"] == 2  # planar under per-beam and boresight
     assert any(a.startswith("ZDR bias of planar") for a in seen["alts"])
+    assert any(a.startswith("peak sidelobe and error budget") for a in seen["alts"])

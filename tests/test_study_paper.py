@@ -1,10 +1,11 @@
-"""The paper study end to end (slow: about 11 min on 2 cores, so ``-m slow`` only).
-``PASIM_PAPER_STUDY`` names a finished study folder of ``graphs/paper_study.yaml`` to check
-instead of running it.
+"""The paper study and the bits study end to end (slow: about 11 and 16 min on 2 cores, so
+``-m slow`` only). ``PASIM_PAPER_STUDY`` / ``PASIM_BITS_STUDY`` name finished study folders of
+``graphs/paper_study.yaml`` / ``graphs/bits_study.yaml`` to check instead of running them.
 
 Against the paper (section 3.3, figures 9e-11e) and theory: a planar face's ZDR bias under a
 boresight radar constant follows its two-way H/V ratio dB for dB, a cylinder's stays flat, a
-radar constant per beam flattens the face's.
+radar constant per beam flattens the face's; fewer phase-shifter bits raise the peak sidelobe
+(quantisation lobes) until the random channel errors dominate.
 """
 
 from __future__ import annotations
@@ -34,6 +35,11 @@ def _study(tmp_path_factory: pytest.TempPathFactory, name: str, env: str) -> dic
 @pytest.fixture(scope="module")
 def paper(tmp_path_factory):
     return _study(tmp_path_factory, "paper_study", "PASIM_PAPER_STUDY")
+
+
+@pytest.fixture(scope="module")
+def bits(tmp_path_factory):
+    return _study(tmp_path_factory, "bits_study", "PASIM_BITS_STUDY")
 
 
 def cal(paper: dict, system: str) -> dict:
@@ -68,3 +74,22 @@ def test_the_paper_report_draws_a_zdr_figure_per_calibrated_system(paper):
     html = (paper["out"] / "report.html").read_text()
     for system in ("atd", "cppar2", "cppar10"):
         assert f'alt="ZDR bias of {system} along azimuth' in html
+
+
+def test_fewer_bits_never_improve_the_sidelobes(bits):
+    sweep = bits["scores"]["_study"]["sweeps"]["cppar10_impaired"]["convective"]
+    assert sweep["values"] == [3.0, 4.0, 5.0, 6.0, 7.0, 8.0]
+    trend = sweep["peak_sidelobe_trend"]
+    assert trend["monotone"] and trend["direction"] == "falling"
+    assert sweep["peak_sidelobe_db"][0] > sweep["peak_sidelobe_db"][-1] + 2.0
+    dbzh = sweep["fields"]["DBZH"]
+    assert dbzh["sidelobes_trend"]["monotone"]
+    assert dbzh["sidelobes_trend"]["direction"] == "falling"
+    assert dbzh["stops_mattering"]["value"] is not None
+
+
+def test_the_bits_report_says_where_the_sidelobes_stop_mattering(bits):
+    html = (bits["out"] / "report.html").read_text()
+    assert "Peak sidelobe: falls from" in html
+    assert "DBZH, sidelobe part of the budget" in html
+    assert "matter against the other parts" in html

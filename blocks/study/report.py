@@ -24,7 +24,9 @@ from .design_figures import (
     PARTS,
     calibration_figure,
     calibration_rows,
+    sidelobe_figure,
     sweep_figure,
+    sweep_verdicts,
 )
 from .figures import Figure, canvas, uri
 from .runner import MANIFEST, StudyError, write_atomic
@@ -69,6 +71,7 @@ class CaseReport:
     rankings: list[dict[str, Any]] = field(default_factory=list)
     budget_rows: list[dict[str, Any]] = field(default_factory=list)
     calibration_rows: list[dict[str, Any]] = field(default_factory=list)
+    sweep_verdicts: dict[str, list[str]] = field(default_factory=dict)
     figures: dict[str, list[Figure]] = field(default_factory=dict)
 
 
@@ -423,8 +426,12 @@ def build(out: Path) -> dict[str, Any]:
         rep.figures["ppi"] = [ppi_figure(n, panels) for n in FIELDS if panels] if panels else []
         rep.figures["hist"] = [histogram_figure(panels)] if panels else []
         rep.figures["sweeps"] = [
-            f for s in systems for f in (sweep_figure(scores, s, case),) if f is not None
+            f
+            for s in systems
+            for f in (sweep_figure(scores, s, case), sidelobe_figure(scores, s, case))
+            if f is not None
         ]
+        rep.sweep_verdicts = {s: v for s in systems if (v := sweep_verdicts(scores, s, case))}
         rep.calibration_rows = calibration_rows(scores, systems, case)
         rep.figures["calibration"] = [
             calibration_figure(s, cal)

@@ -154,12 +154,32 @@ def statistics(
     }
 
 
+def std_intervals(
+    terms: dict[str, np.ndarray], ok: np.ndarray, block: int, seed: int = 0
+) -> dict[str, list[float]]:
+    """95 % intervals of the std of each term (beam, range) on the gates ``ok``, by one block
+    bootstrap over beams shared by all terms (the same resampled beams for every part)."""
+    sums = {k: _beam_sums(np.where(ok, d, np.nan), max(1, block)) for k, d in terms.items()}
+    n = next(iter(sums.values()))[0]
+    if n.size < 2 or n.sum() < 3:
+        return {k: [math.nan, math.nan] for k in terms}
+    pick = np.random.default_rng(seed).integers(0, n.size, size=(BOOTSTRAP, n.size))
+    out = {}
+    for k, (nk, s1, s2) in sums.items():
+        N, S1, S2 = nk[pick].sum(1), s1[pick].sum(1), s2[pick].sum(1)
+        good = N > 1
+        var = np.maximum(S2[good] - S1[good] ** 2 / N[good], 0.0) / (N[good] - 1)
+        out[k] = [float(v) for v in np.percentile(np.sqrt(var), [2.5, 97.5])]
+    return out
+
+
 def budget(
     est: np.ndarray,
     own: np.ndarray,
     free: np.ndarray,
     short: np.ndarray,
     period: float | None,
+    block: int = 1,
 ) -> dict[str, Any]:
     """The error against the raw gates split along est - raw = (est - own expected) +
     (own - sidelobe-free) + (sidelobe-free - short pulse) + (short pulse - raw), on the gates
@@ -187,6 +207,11 @@ def budget(
         "total": total,
         "quadrature_sum": quadrature,
         "count": n,
+        # Each part's share of the variance the parts add up to (the stacked bars' heights).
+        "variance_share": {
+            k: p * p / quadrature**2 if quadrature > 0 else math.nan for k, p in parts.items()
+        },
+        "ci": std_intervals({**parts_d, "total": est}, ok, block),
     }
     adds = total > 0 and abs(quadrature - total) <= BUDGET_TOLERANCE * total
     out["adds_up"] = bool(adds)
@@ -223,6 +248,7 @@ def score_study(
     """Scores of every system, case and point whose runs are all finished; ``patterns``: the
     antenna figures the runner measured (:mod:`.patterns`), by ``SYSTEM/CASE/POINT``."""
     from .runner import finished
+    from .sweeps import sweep_summaries
 
     errors: dict[str, Errors] = {}
 
@@ -295,6 +321,7 @@ def score_study(
         "notes": sorted(set(notes)),
         "rankings": rankings(study, result),
     }
+    result["_study"]["sweeps"] = sweep_summaries(study, result, patterns or {})
     return result
 
 
@@ -381,6 +408,7 @@ def _score_point(
                 np.concatenate([free.fields[name]] * len(e)),
                 np.concatenate([short.fields[name]] * len(e)),
                 period,
+                block,
             )
         else:
             entry["budget"] = None
