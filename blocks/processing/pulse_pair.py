@@ -5,11 +5,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
-from ..cf import cf_attributes
 from ..signals import (
     BEAMS,
     CALIBRATION,
@@ -17,11 +15,11 @@ from ..signals import (
     ECHO_CORRELATIONS,
     IQ,
     MOMENT_FIELDS,
-    MOMENT_UNITS,
     MOMENTS,
     NOISE_POWER,
     POLARIMETRIC_FIELDS,
 )
+from .output import moments_dataset, thresholds
 
 
 def correlations(iq_h: np.ndarray, iq_v: np.ndarray | None, doppler: bool = True) -> dict:
@@ -183,15 +181,6 @@ def pulse_pair(
     )
 
 
-def _censoring_attrs(threshold_db: float) -> dict[str, Any]:
-    if not np.isfinite(threshold_db):
-        return {"censoring": "none"}
-    return {
-        "censoring": f"estimated SNR below {threshold_db:g} dB",
-        "snr_threshold_db": threshold_db,
-    }
-
-
 class PulsePairProcessor(Block):
     """Pulse-pair moments, noise-corrected, calibrated to dBZ with the radar constant.
 
@@ -250,18 +239,9 @@ class PulsePairProcessor(Block):
     )
 
     def setup(self) -> None:
-        self._cf = cf_attributes()
-        t = {
-            "DBZH": self.p["snr_threshold_reflectivity_db"],
-            "VRADH": self.p["snr_threshold_doppler_db"],
-            "WRADH": self.p["snr_threshold_doppler_db"],
-        }
-        t |= dict.fromkeys(POLARIMETRIC_FIELDS, self.p["snr_threshold_polarimetric_db"])
-        self._threshold_db = {k: -np.inf if v is None else float(v) for k, v in t.items()}
+        self._threshold_db = thresholds(self.p)
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        cf = self._cf
-
         iq, noise = inputs["iq"], inputs["noise_power"]
         cal = inputs["calibration"]
         prt = float(inputs["beams"]["prt"].values[0])
@@ -323,56 +303,18 @@ class PulsePairProcessor(Block):
         else:
             corr = correlations(iq[..., 0], iq[..., 1] if dual else None, doppler)
             est = moments_from_correlations(corr, noise[..., 0], noise[..., 1], prt, lam)
-        rng = cal["range"].values
-        const = cal["radar_constant_db"].values  # beam x polarisation
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dbz = (
-                10 * np.log10(np.where(est["S_H"] > 0, est["S_H"], np.nan))
-                + 20 * np.log10(rng)[None, :]
-                - const[:, :1]
-            )
-        fields = {"DBZH": dbz}
-        if "ZDR" in est:
-            # The V radar constant may differ from H (patterns); ZDR is corrected for that.
-            fields["ZDR"] = est["ZDR"] - (const[:, :1] - const[:, 1:])
         if "PHIDP" in est and mode == "shv" and beta:
             # The system's differential phase on transmit is known: calibrated out.
             est["PHIDP"] = np.mod(est["PHIDP"] - beta, 360.0)
-        fields |= {k: est[k] for k in ("RHOHV", "PHIDP", "VRADH", "WRADH") if k in est}
-        fields = {k: v for k, v in fields.items() if chunk.wants(k)}
-        # Censoring as an operational radar does: a moment is reported only where the
-        # estimated SNR (noise-corrected H power over the noise) reaches its threshold, and
-        # nowhere inside the blind range (the receiver is off while the pulse goes out).
-        with np.errstate(divide="ignore", invalid="ignore"):
-            snr_db = 10 * np.log10(np.where(est["S_H"] > 0, est["S_H"], np.nan) / noise[..., 0])
-        blind = float(cal.attrs["blind_range_m"])
-        visible = rng[None, :] >= blind
-        ds = xr.Dataset(
-            {
-                k: (
-                    ("beam", "range"),
-                    np.where(visible & ~(snr_db < self._threshold_db[k]), v, np.nan).astype(
-                        np.float32
-                    ),
-                    cf.var(k)
-                    | {"units": MOMENT_UNITS[k]}
-                    | _censoring_attrs(self._threshold_db[k]),
-                )
-                for k, v in fields.items()
-            },
-            coords={"range": ("range", rng, dict(cf.range))},
-            attrs={
-                "blind_range_m": blind,
-                "calibration": str(cal.attrs["calibration"]),
-                "transmission": mode,
-                "phidp_period_deg": 180.0 if mode == "ahv" else 360.0,
-            },
-        )
         # AHV's velocity comes from a lag of two pulses: half the Nyquist velocity.
         nyquist = lam / (4 * prt) / (2 if mode == "ahv" else 1)
-        ds["nyquist_velocity"] = (
-            "beam",
-            np.full(iq.shape[0], nyquist),
-            dict(cf.nyquist_velocity),
+        ds = moments_dataset(
+            est,
+            noise[..., 0],
+            cal,
+            chunk,
+            self._threshold_db,
+            nyquist,
+            {"transmission": mode, "phidp_period_deg": 180.0 if mode == "ahv" else 360.0},
         )
         return {"moments": ds}
