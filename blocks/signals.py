@@ -82,7 +82,24 @@ BEAMS = PortType(
             "azimuth": Var("float64", ("beam",), "degrees", "beam azimuth, clockwise from north"),
             "elevation": Var("float64", ("beam",), "degrees", "beam elevation"),
             "time": Var("datetime64", ("beam",), "", "start of each dwell"),
-            "prt": Var("float64", ("beam",), "seconds", "pulse repetition time"),
+            "prt": Var("float64", ("beam",), "seconds", "pulse repetition time (T1 if staggered)"),
+            "prt_ratio": Var(
+                "float64",
+                ("beam",),
+                "1",
+                "T1 / T2 of a staggered PRT (absent: uniform)",
+                required=False,
+            ),
+            "transmit_phase": Var(
+                "float64",
+                ("beam", "pulse"),
+                "radians",
+                "transmit phase of each pulse of a phase-coded scan (absent: none)",
+                required=False,
+            ),
+            "scan_rate": Var(
+                "float64", ("beam",), "degrees/s", "azimuth rate of the scan", required=False
+            ),
             "pulses": Var("integer", (), "", "pulses per dwell (M)"),
             "sweep_number": Var("integer", (), "", "sweep index in the volume"),
             "sweep_mode": Var("str", (), "", "CfRadial sweep mode"),
@@ -281,6 +298,13 @@ MOMENTS = PortType(
             **_moments(("beam", "range")),
             "range": Var("float64", ("range",), "meters", "gate centre ranges"),
             "nyquist_velocity": Var("float64", ("beam",), "m s-1", "Nyquist velocity"),
+            "CCORH": Var(
+                "float32",
+                ("beam", "range"),
+                "dB",
+                "clutter power removed by the clutter filter, H (spectral processor)",
+                required=False,
+            ),
         },
         {
             "blind_range_m": Attr("float", "gates nearer than this are not estimated"),

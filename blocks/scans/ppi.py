@@ -12,6 +12,7 @@ from pasim_graph import Block, Chunk, Input, Output, Param
 from ..angles import circular_difference, nearest_radial
 from ..cf import cf_attributes
 from ..signals import BEAMS, TRUTH
+from ..timing import STAGGERS, sz_code
 
 
 class PPISector(Block):
@@ -44,6 +45,18 @@ class PPISector(Block):
     pulses = Param(64, type="int", min=2, max=4096, doc="pulses per dwell (M)")
     prt_s = Param(1 / 300, units="s", min=1e-5, max=0.1, doc="pulse repetition time")
     align_to_truth = Param(True, type="bool", doc="point each beam at the nearest truth radial")
+    stagger = Param(
+        "uniform",
+        type="str",
+        choices=("uniform", *STAGGERS),
+        doc="PRT scheme: uniform, or staggered with T1/T2 = 2/3 or 3/4 (prt_s is T1)",
+    )
+    phase_code = Param(
+        "none",
+        type="str",
+        choices=("none", "sz8_64", "random"),
+        doc="transmit phase code: none, SZ(8/64) (Sachidananda and Zrnic 1999), or random",
+    )
 
     @classmethod
     def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
@@ -82,6 +95,15 @@ class PPISector(Block):
     def beam_count(self) -> int:
         return self.n_beams
 
+    def _code(self, chunk: Chunk, beam: int) -> np.ndarray:
+        """The transmit phases of one beam's pulses: the SZ(8/64) code (repeated every 64
+        pulses), or random phases from the beam's own stream (the same whatever the
+        chunking)."""
+        m = int(self.p["pulses"])
+        if self.p["phase_code"] == "sz8_64":
+            return np.resize(sz_code(8, 64), m)
+        return chunk.rng(beam).uniform(0.0, 2 * np.pi, m)
+
     def nominal_azimuths(self) -> np.ndarray:
         step = self.p["beam_spacing_deg"]
         return (self.p["azimuth_start_deg"] + step * (np.arange(self.n_beams) + 0.5)) % 360.0
@@ -100,7 +122,11 @@ class PPISector(Block):
             )
             site = {k: float(truth.attrs.get(k, 0.0)) for k in site}
         beams = chunk.beams
-        dwell = self.p["pulses"] * self.p["prt_s"]
+        prt = self.p["prt_s"]
+        if self.p["stagger"] != "uniform":
+            # The dwell's pulses alternate T1 and T2 = T1 / ratio apart.
+            prt = prt * (1 + 1 / float(STAGGERS[self.p["stagger"]])) / 2
+        dwell = self.p["pulses"] * prt
         time = start + (beams * dwell * 1e9).astype("timedelta64[ns]")
         elevation = np.full(beams.size, self.p["elevation_deg"])
         ds = xr.Dataset(
@@ -114,6 +140,11 @@ class PPISector(Block):
                     {"units": "seconds", "long_name": "pulse repetition time"},
                 ),
                 "pulses": ((), int(self.p["pulses"]), {"long_name": "pulses per dwell"}),
+                "scan_rate": (
+                    "beam",
+                    np.full(beams.size, self.p["beam_spacing_deg"] / dwell),
+                    {"units": "degrees/s", "long_name": "azimuth rate of the scan"},
+                ),
                 # Volume metadata FM-301 asks for at the root (the store moves it there).
                 "time_coverage_start": ((), _iso(start)),
                 "time_coverage_end": (
@@ -131,6 +162,18 @@ class PPISector(Block):
                 **{k: ((), v) for k, v in site.items()},
             },
         )
+        if self.p["stagger"] != "uniform":
+            ds["prt_ratio"] = (
+                "beam",
+                np.full(beams.size, float(STAGGERS[self.p["stagger"]])),
+                {"units": "1", "long_name": "ratio of the PRTs of a staggered scan, T1 / T2"},
+            )
+        if self.p["phase_code"] != "none":
+            ds["transmit_phase"] = (
+                ("beam", "pulse"),
+                np.stack([self._code(chunk, int(b)) for b in beams]),
+                {"units": "radians", "long_name": "transmit phase of each pulse"},
+            )
         ds["latitude"].attrs = dict(cf.latitude)
         ds["longitude"].attrs = dict(cf.longitude)
         ds["altitude"].attrs = dict(cf.altitude)
