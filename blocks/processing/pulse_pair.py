@@ -251,6 +251,11 @@ class PulsePairProcessor(Block):
         polarimetric = chunk.wants(*POLARIMETRIC_FIELDS)
         dual = bool(cal.attrs.get("dual_polarization", 1)) and polarimetric
         doppler = chunk.wants("VRADH", "WRADH")
+        if "prt_ratio" in inputs["beams"]:
+            raise ValueError(
+                "the scan's PRT is staggered (scan.ppi's stagger): the pulse-pair processor "
+                "assumes a uniform PRT; use processor.staggered"
+            )
         if mode not in ("shv", "ahv"):
             raise ValueError(f"calibration: unknown transmission {mode!r} (expected shv or ahv)")
         if mode == "ahv":

@@ -26,6 +26,7 @@ from ..signals import (
     SPEED_OF_LIGHT,
     TRUTH,
 )
+from ..timing import fine_grid, prt_ratio
 from .beams import BeamDraw, Coupling, azimuth_profile, cell_solid_angles, coupling_weights
 from .cells import TruthCells
 from .combined import draw_combined, draw_combined_coupled, draw_tones, draw_tones_coupled
@@ -195,6 +196,11 @@ class WeatherChannel(Block):
         lam = SPEED_OF_LIGHT / self.p["frequency_hz"]
         prt = float(beams["prt"].values[0])
         pulses = int(beams["pulses"].values)
+        staggered = _staggered_grid(beams, method, self.p["transmission"])
+        if staggered is not None:
+            # The series are drawn on a uniform grid of step u (T1 = a u, T2 = b u) and
+            # sampled at the pulse times.
+            prt, pulses = staggered[0], int(staggered[1][-1]) + 1
         rng_m = truth["range"].values
         gate_m = float(truth.attrs["gate_width_m"])
         width_deg = float(truth.attrs["radial_width_deg"])
@@ -347,7 +353,7 @@ class WeatherChannel(Block):
             },
             attrs={
                 "wavelength_m": lam,
-                "prt_s": prt,
+                "prt_s": float(beams["prt"].values[0]),
                 "dual_polarization": int(dual),
                 "blind_range_m": blind_m,
                 "calibration": str(pattern.attrs["calibration"]),
@@ -357,12 +363,31 @@ class WeatherChannel(Block):
             },
         )
         power = corr[..., :2].real.astype(np.float32)
+        if staggered is not None:
+            iq = iq[..., staggered[1]]
         return {
             "iq": np.moveaxis(iq.astype(np.complex64, copy=False), 1, -1),
             "signal_power": power,
             "echo_correlations": corr,
             "calibration": calibration,
         }
+
+
+def _staggered_grid(
+    beams: xr.Dataset, method: str, transmission: str
+) -> tuple[float, np.ndarray] | None:
+    """The uniform grid step and the pulses' indices on it of a staggered scan (None when
+    the PRT is uniform)."""
+    ratio = prt_ratio(beams)
+    if ratio is None:
+        return None
+    if method == "expected" or transmission != "shv":
+        raise ValueError(
+            "a staggered PRT needs time series in simultaneous transmission: method "
+            f"{method!r} and transmission {transmission!r} (use combined, covariance or "
+            "monte_carlo, and shv)"
+        )
+    return fine_grid(float(beams["prt"].values[0]), int(beams["pulses"].values), ratio)
 
 
 def _largest_speed(truth: xr.Dataset) -> float:
