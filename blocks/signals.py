@@ -261,6 +261,13 @@ CALIBRATION = PortType(
                 "dB",
                 "10 log10 of echo power x r^2 for 1 mm^6 m^-3, per beam and channel",
             ),
+            "overlaid_power_ratio_db": Var(
+                "float32",
+                ("beam", "range"),
+                "dB",
+                "expected power of the other trips over the gate's own (range folding)",
+                required=False,
+            ),
             "range": Var("float64", ("range",), "meters", "gate centre ranges"),
             "polarization": Var("str", ("polarization",), "", "H, V"),
         },
@@ -328,6 +335,13 @@ SCORES = PortType(
         {
             "SNRH": Var("float32", ("beam", "range"), "dB", "expected SNR, H (noise-free echo)"),
             "scored": Var("int8", ("beam", "range"), "", "1 where the gate meets the rule"),
+            "overlaid": Var(
+                "int8",
+                ("beam", "range"),
+                "",
+                "1 where the gate meets the rule but is overlaid by other trips (not scored)",
+                required=False,
+            ),
             **_moments(("beam", "range"), prefix="truth_"),
             **{
                 f"error_{k}": Var(

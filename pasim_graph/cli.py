@@ -320,6 +320,11 @@ def _print_scores(scores: dict[str, dict[str, Any]], stream: Any) -> None:
     first = next(iter(scores.values()))
     if first.get("scored"):
         print(f"scored gates: {first['scored']}", file=stream)
+    if first.get("excluded"):
+        print(
+            f"not scored: {first['excluded']} gates that meet the rule, {first['excluded_reason']}",
+            file=stream,
+        )
     n = first.get("scored_gates", first["count"])
     if n == 0:
         print(

@@ -531,6 +531,12 @@ def summarize(sweep: xr.Dataset) -> dict[str, dict[str, Any]]:
     """
     scored_vars = [v for v in sweep.data_vars.values() if v.attrs.get("pasim_role") == "scored"]
     n_scored = int(np.asarray(scored_vars[0].values).sum()) if scored_vars else None
+    # Gates a scorer set apart (e.g. overlaid by another trip): counted, not scored.
+    excluded = [v for v in sweep.data_vars.values() if v.attrs.get("pasim_role") == "excluded"]
+    extra = {
+        "excluded": sum(int(np.asarray(v.values).sum()) for v in excluded),
+        "excluded_reason": "; ".join(str(v.attrs.get("excluded", "")) for v in excluded),
+    }
     out: dict[str, dict[str, Any]] = {}
     for name, var in sweep.data_vars.items():
         if var.attrs.get("pasim_role") != "error":
@@ -562,5 +568,6 @@ def summarize(sweep: xr.Dataset) -> dict[str, dict[str, Any]]:
             "scored_gates": n_scored if n_scored is not None else n,
             "unestimated": unestimated,
             "scored": var.attrs.get("scored", ""),
+            **(extra if excluded else {}),
         }
     return out

@@ -11,7 +11,16 @@ from pasim_graph import Block, Chunk, Input, Output, Param
 
 from ..angles import circular_difference, nearest_radial
 from ..cf import cf_attributes
-from ..signals import BEAMS, MOMENT_UNITS, MOMENTS, NOISE_POWER, SCORES, SIGNAL_POWER, TRUTH
+from ..signals import (
+    BEAMS,
+    CALIBRATION,
+    MOMENT_UNITS,
+    MOMENTS,
+    NOISE_POWER,
+    SCORES,
+    SIGNAL_POWER,
+    TRUTH,
+)
 
 #: NEXRAD data-quality requirements (paper Table 3): bias, standard deviation, units.
 REQUIREMENTS = {
@@ -40,6 +49,11 @@ class NexradScorer(Block):
     signal_power = Input(SIGNAL_POWER, doc="expected echo power")
     noise_power = Input(NOISE_POWER, doc="noise power per channel")
     beams = Input(BEAMS, doc="beam geometry")
+    calibration = Input(
+        CALIBRATION,
+        required=False,
+        doc="the weather channel's calibration: with range folding, the other trips' power",
+    )
     scores = Output(SCORES, store="moments", doc="truth on the grid, SNR and errors")
 
     min_reflectivity_dbz = Param(
@@ -51,6 +65,15 @@ class NexradScorer(Block):
     )
     min_snr_db = Param(
         10.0, units="dB", min=-100.0, max=100.0, doc="score gates with expected SNR at least this"
+    )
+
+    max_overlay_db = Param(
+        -20.0,
+        units="dB",
+        min=-100.0,
+        max=100.0,
+        doc="gates where the other trips' expected power over the gate's own exceeds this are "
+        "flagged overlaid and scored apart (not in the scores)",
     )
 
     def setup(self) -> None:
@@ -75,6 +98,13 @@ class NexradScorer(Block):
                 & (snr >= self.p["min_snr_db"])
                 & (est["range"].values >= blind)[None, :]
             )
+        cal = inputs.get("calibration")
+        overlaid = None
+        if cal is not None and "overlaid_power_ratio_db" in cal:
+            ratio = cal["overlaid_power_ratio_db"].values[:, :n_est]
+            with np.errstate(invalid="ignore"):
+                overlaid = scored & (ratio > self.p["max_overlay_db"])
+            scored &= ~overlaid
         rule = (
             f"truth DBZH >= {self.p['min_reflectivity_dbz']:g} dBZ and expected SNRH >= "
             f"{self.p['min_snr_db']:g} dB, beyond the blind range ({blind:g} m); truth = the "
@@ -105,6 +135,17 @@ class NexradScorer(Block):
                 "scored": (dims, scored.astype(np.int8), scored_attrs),
             }
         )
+        if overlaid is not None:
+            out["overlaid"] = (
+                dims,
+                overlaid.astype(np.int8),
+                {
+                    "pasim_role": "excluded",
+                    "long_name": "gate meets the rule but another trip overlays it",
+                    "excluded": f"overlaid by other trips above {self.p['max_overlay_db']:g} dB "
+                    "of the gate's own echo (range folding)",
+                },
+            )
         nyquist = est["nyquist_velocity"].values[:, None]
         # Alternate transmission measures phi_DP modulo 180 deg (as velocity modulo its
         # Nyquist interval): it is scored on that circle.

@@ -26,7 +26,7 @@ from ..signals import (
     SPEED_OF_LIGHT,
     TRUTH,
 )
-from ..timing import fine_grid, prt_ratio
+from ..timing import fine_grid, prt_ratio, transmit_phase
 from .beams import BeamDraw, Coupling, azimuth_profile, cell_solid_angles, coupling_weights
 from .cells import TruthCells
 from .combined import draw_combined, draw_combined_coupled, draw_tones, draw_tones_coupled
@@ -37,6 +37,7 @@ from .polarimetry import (
     MODES,
     receive_channels,
 )
+from .trips import fold_trips, overlaid_power, trip_count, trip_offsets
 
 #: Fidelity levels of the weather channel, fastest first.
 METHODS = ("expected", "combined", "covariance", "monte_carlo")
@@ -160,6 +161,12 @@ class WeatherChannel(Block):
         max=360.0,
         doc="phase of the V port's excitation against the H port's in SHV (the system's "
         "differential phase on transmit)",
+    )
+    range_folding = Param(
+        True,
+        type="bool",
+        doc="add the echoes of earlier pulses from beyond the unambiguous range c T / 2 "
+        "(multiple trips); false: every echo first-trip",
     )
     cross_polar_coupling = Param(
         True,
@@ -331,6 +338,12 @@ class WeatherChannel(Block):
                     draw_tones_coupled(iq[i], draw)
                 draw_per_cell_coupled(iq[i], draw)
 
+        if staggered is not None:
+            iq = iq[..., staggered[1]]
+        folded = self._fold(iq, corr, beams, rng_m, gate_m, method)
+        overlay = None
+        if folded is not None:
+            iq, corr, overlay = folded
         # The receiver is off while the pulse goes out: nothing is received inside the blind
         # range (the processor masks those gates and the scorer never scores them).
         blind_m = float(response.attrs["blind_range_m"])
@@ -362,15 +375,57 @@ class WeatherChannel(Block):
                 "cross_polar_coupling": int(coupled),
             },
         )
+        if overlay is not None:
+            calibration["overlaid_power_ratio_db"] = (
+                ("beam", "range"),
+                overlay,
+                {"units": "dB", "long_name": "power of the other trips over the gate's own"},
+            )
         power = corr[..., :2].real.astype(np.float32)
-        if staggered is not None:
-            iq = iq[..., staggered[1]]
         return {
             "iq": np.moveaxis(iq.astype(np.complex64, copy=False), 1, -1),
             "signal_power": power,
             "echo_correlations": corr,
             "calibration": calibration,
         }
+
+    def _fold(
+        self,
+        iq: np.ndarray,
+        corr: np.ndarray,
+        beams: xr.Dataset,
+        rng_m: np.ndarray,
+        gate_m: float,
+        method: str,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The trips folded onto the apparent gates (:mod:`pasim_blocks.weather.trips`):
+        the I/Q, the correlations (the gate's own trip; nothing beyond the unambiguous
+        range) and the other trips' power over the gate's own (dB). None when nothing folds
+        and no phase code is transmitted."""
+        prt = float(beams["prt"].values[0])
+        pulses = int(beams["pulses"].values)
+        ratio = prt_ratio(beams)
+        phase = transmit_phase(beams, pulses)
+        trips = trip_count(rng_m, prt) if self.p["range_folding"] else 1
+        if trips == 1 and phase is None:
+            return None
+        if method == "expected":
+            raise ValueError(
+                "range folding and phase codes need time series: the weather channel's "
+                "method 'expected' has none (use combined, covariance or monte_carlo, or set "
+                "range_folding false)"
+            )
+        r_a = SPEED_OF_LIGHT * prt / 2
+        visible = rng_m < r_a if trips > 1 else np.ones(rng_m.size, bool)
+        offsets = trip_offsets(pulses, prt, ratio, gate_m, trips)
+        folded = fold_trips(iq, offsets, visible, phase)
+        own = corr[..., 0].real
+        other = overlaid_power(own, offsets, visible)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio_db = 10 * np.log10(other / own)
+        ratio_db = np.where(visible[None, :], ratio_db, np.nan).astype(np.float32)
+        corr = np.where(visible[None, :, None], corr, 0)
+        return folded, corr, ratio_db
 
 
 def _staggered_grid(
