@@ -291,6 +291,11 @@ CALIBRATION = PortType(
                 "1 when the echoes were coupled through co- and cross-polar fields",
                 required=False,
             ),
+            "unambiguous_range_m": Attr(
+                "float",
+                "c T / 2 when echoes from beyond it fold onto the gates (range folding)",
+                required=False,
+            ),
         },
     ),
 )

@@ -78,11 +78,14 @@ def moments_dataset(
     nyquist_ms: float,
     attrs: dict[str, Any],
     snr_power: np.ndarray | None = None,
+    beyond_unambiguous: bool = False,
 ) -> xr.Dataset:
     """The MOMENTS Dataset from noise-corrected estimates (``S_H`` W, ``ZDR`` dB uncorrected
     for the V constant, ``RHOHV``, ``PHIDP`` deg, ``VRADH``, ``WRADH`` m/s; what is there).
 
     Censoring uses the estimated SNR of ``snr_power`` (default ``S_H``) over ``noise_h``.
+    Gates at or beyond the calibration's unambiguous range (range folding) are masked unless
+    ``beyond_unambiguous`` (a processor that recovers the far trips).
     ``attrs`` are added to the Dataset's (``transmission``, ``phidp_period_deg``, ...).
     """
     cf = cf_attributes()
@@ -108,6 +111,9 @@ def moments_dataset(
         snr_db = 10 * np.log10(np.where(s > 0, s, np.nan) / noise_h)
     blind = float(cal.attrs["blind_range_m"])
     visible = rng[None, :] >= blind
+    if "unambiguous_range_m" in cal.attrs and not beyond_unambiguous:
+        # No sample is taken at or beyond c T / 2 (the next pulse has gone out).
+        visible = visible & (rng[None, :] < float(cal.attrs["unambiguous_range_m"]))
     ds = xr.Dataset(
         {
             k: (

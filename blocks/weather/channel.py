@@ -201,7 +201,7 @@ class WeatherChannel(Block):
         method = self.p["method"]
         dtype = np.float32 if self.p["precision"] == "float32" else np.float64
         lam = SPEED_OF_LIGHT / self.p["frequency_hz"]
-        prt = float(beams["prt"].values[0])
+        prt = prt_t1 = float(beams["prt"].values[0])
         pulses = int(beams["pulses"].values)
         staggered = _staggered_grid(beams, method, self.p["transmission"])
         if staggered is not None:
@@ -366,7 +366,7 @@ class WeatherChannel(Block):
             },
             attrs={
                 "wavelength_m": lam,
-                "prt_s": float(beams["prt"].values[0]),
+                "prt_s": prt_t1,
                 "dual_polarization": int(dual),
                 "blind_range_m": blind_m,
                 "calibration": str(pattern.attrs["calibration"]),
@@ -376,6 +376,7 @@ class WeatherChannel(Block):
             },
         )
         if overlay is not None:
+            calibration.attrs["unambiguous_range_m"] = SPEED_OF_LIGHT * prt_t1 / 2
             calibration["overlaid_power_ratio_db"] = (
                 ("beam", "range"),
                 overlay,
@@ -424,7 +425,7 @@ class WeatherChannel(Block):
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio_db = 10 * np.log10(other / own)
         ratio_db = np.where(visible[None, :], ratio_db, np.nan).astype(np.float32)
-        corr = np.where(visible[None, :, None], corr, 0)
+        # The correlations stay each gate's own echo (a processor may recover a far trip).
         return folded, corr, ratio_db
 
 
