@@ -53,6 +53,13 @@ class Receiver(Block):
         doc="hold the H-channel SNR at this value at every gate (default: thermal)",
     )
 
+    store_iq = Param(
+        True,
+        type="bool",
+        doc="store this receiver's I/Q with --save-iq (false for a graph's second receiver, "
+        "e.g. a split cut's Doppler cut: one store holds one I/Q cube)",
+    )
+
     @classmethod
     def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
         if params.get("snr_db") is not None and "signal_power" not in connected:
@@ -88,7 +95,7 @@ class Receiver(Block):
                 "--save-iq: the I/Q cube has no pulses to store (the weather channel's "
                 "'expected' level draws none); run at 'combined' or a slower level"
             )
-        if chunk.options.get("save_iq"):
+        if chunk.options.get("save_iq") and self.p["store_iq"]:
             dims = ("beam", "range", "pulse")
             result["iq_store"] = xr.Dataset(
                 {
