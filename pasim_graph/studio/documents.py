@@ -21,9 +21,7 @@ import difflib
 import hashlib
 import json
 import math
-import os
-import tempfile
-from collections.abc import Iterator
+import re
 from pathlib import Path
 from typing import Any
 
@@ -33,155 +31,42 @@ from ..graph import GraphError, resolve
 from ..graphfile import (
     BLOCK_NAME,
     FORMAT,
+    MAX_GRAPH_BYTES,
     PORT_NAME,
     BlockSpec,
     ConnectionSpec,
     Endpoint,
     GraphSpec,
+    Problem,
     dumps,
     format_value,
     parse,
     parse_value,
     read,
 )
+from .folder import GRAPH_SUFFIXES, Folder, RequestError, write_atomic
 
-GRAPH_SUFFIXES = (".yaml", ".yml")
-
-
-def _other_format(path: Path) -> bool:
-    """The file declares another document format than a graph's (``format: pasim-study/1``)."""
-    try:
-        with path.open("rb") as f:
-            head = f.read(4096).decode("utf-8", "replace")
-    except OSError:
-        return False
-    for line in head.splitlines():
-        if line.startswith("format:"):
-            value = line.partition(":")[2].strip().strip("'\"")
-            return not value.startswith("pasim-graph/")
-    return False
-
+__all__ = ["GRAPH_SUFFIXES", "Folder", "RequestError", "write_atomic"]
 
 LAYOUT_SUFFIX = ".layout.json"
 LAYOUT_FORMAT = "pasim-layout/1"
 
-_MAX_TEXT = 10_000
-_MAX_BLOCKS = 1_000
-_MAX_CONNECTIONS = 10_000
-
-
-class RequestError(Exception):
-    """A request the studio refuses; ``status`` is the HTTP status, the message says why."""
-
-    def __init__(self, status: int, message: str, **extra: Any):
-        super().__init__(message)
-        self.status, self.message, self.extra = status, message, extra
+# Graph files are a few kilobytes (the reader takes at most MAX_GRAPH_BYTES): the bounds
+# keep a request's checking to a fraction of a second.
+_MAX_TEXT = 4_000
+_MAX_BLOCKS = 500
+_MAX_CONNECTIONS = 5_000
+_MAX_VARIABLES = 1_000
+_MAX_PARAMS = 200
+#: A variable's or a parameter's name: an identifier, written unquoted by the canonical
+#: writer (``my var: x`` would be read back as another document).
+NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+#: A block type's name (``amplifier.saleh``).
+TYPE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.-]*")
 
 
 def sha256(text: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
-
-
-# ---------------------------------------------------------------------------------------------
-# The served folder
-
-
-class Folder:
-    """The folder the studio serves: graph paths are relative to it and never leave it."""
-
-    def __init__(self, root: str | Path):
-        self.root = Path(root).resolve()
-
-    def resolve(self, rel: Any, *, must_exist: bool = True, suffixes=GRAPH_SUFFIXES) -> Path:
-        """The file a request names, refused unless it is a graph file inside the folder.
-
-        Refused: anything but a relative path, a ``..`` component, another suffix, and a path
-        that leaves the folder once symlinks are followed.
-        """
-        if not isinstance(rel, str) or not rel.strip():
-            raise RequestError(400, "expected 'path': a graph file relative to the served folder")
-        if "\x00" in rel or "\\" in rel or len(rel) > 1024:
-            raise RequestError(400, f"invalid path {rel!r}")
-        p = Path(rel)
-        if p.is_absolute() or rel.startswith("~"):
-            raise RequestError(
-                403, f"refused path {rel!r}: give a path relative to the served folder"
-            )
-        if ".." in p.parts:
-            raise RequestError(403, f"refused path {rel!r}: '..' would leave the served folder")
-        if not rel.endswith(tuple(suffixes)):
-            raise RequestError(
-                400, f"refused path {rel!r}: expected a file ending in {' or '.join(suffixes)}"
-            )
-        full = (self.root / p).resolve()
-        if not full.is_relative_to(self.root):
-            raise RequestError(
-                403, f"refused path {rel!r}: it leads outside the served folder (a symlink)"
-            )
-        if must_exist and not full.is_file():
-            raise RequestError(404, f"no graph file {rel!r} in the served folder")
-        return full
-
-    def rel(self, path: Path) -> str:
-        return path.resolve().relative_to(self.root).as_posix()
-
-    def _walk(self) -> Iterator[tuple[str, list[str]]]:
-        """(folder, sorted file names) below the root; hidden folders, node_modules,
-        __pycache__ and stores skipped."""
-        for dirpath, dirnames, filenames in os.walk(self.root):
-            dirnames[:] = sorted(
-                d
-                for d in dirnames
-                if not d.startswith(".")
-                and d not in ("node_modules", "__pycache__")
-                and not d.endswith(".zarr")
-            )
-            yield dirpath, sorted(filenames)
-
-    def graphs(self, limit: int = 1000) -> list[str]:
-        """Graph files in the folder and its subfolders (hidden folders and venvs skipped)."""
-        out: list[str] = []
-        for dirpath, filenames in self._walk():
-            for f in filenames:
-                if f.endswith(GRAPH_SUFFIXES):
-                    full = Path(dirpath) / f
-                    # Symlinks out of the folder are not listed (and refused if asked for);
-                    # other YAML documents (a study file) are not graphs.
-                    if full.resolve().is_relative_to(self.root) and not _other_format(full):
-                        out.append(full.relative_to(self.root).as_posix())
-                if len(out) >= limit:
-                    return out
-        return out
-
-    def truths(self, limit: int = 200) -> list[str]:
-        """Files in the folder that start like a NEXRAD Level-II volume (``AR2V``/``ARCHIVE2``)."""
-        out: list[str] = []
-        for dirpath, filenames in self._walk():
-            for f in filenames:
-                full = Path(dirpath) / f
-                try:
-                    with open(full, "rb") as fh:
-                        head = fh.read(8)
-                except OSError:
-                    continue
-                if head.startswith((b"AR2V", b"ARCHIVE2")) and full.resolve().is_relative_to(
-                    self.root
-                ):
-                    out.append(full.relative_to(self.root).as_posix())
-                if len(out) >= limit:
-                    return out
-        return out
-
-    def truth_path(self, rel: Any) -> Path:
-        """A truth file a run asks for: inside the folder, an existing file."""
-        if not isinstance(rel, str):
-            raise RequestError(400, "expected 'truth' to be a path (or empty)")
-        try:
-            return self.resolve(rel, suffixes=("",))
-        except RequestError as exc:
-            raise RequestError(
-                exc.status, exc.message.replace("graph file", "truth file")
-            ) from None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -209,7 +94,21 @@ def _text(value: Any, where: str) -> Any:
         raise RequestError(400, f"{where}: expected the value as text, found {_json_type(value)}")
     if len(value) > _MAX_TEXT:
         raise RequestError(400, f"{where}: value longer than {_MAX_TEXT} characters")
-    return parse_value(value) if value.strip() else None
+    if not value.strip():
+        return None
+    try:
+        return parse_value(value)
+    except (ValueError, RecursionError) as exc:
+        # A 5,000-digit integer is over Python's limit for converting text to int.
+        raise RequestError(400, f"{where}: {value[:40]!r}... is not a value: {exc}") from None
+
+
+def _name(name: str, what: str) -> None:
+    if not NAME.fullmatch(name):
+        raise RequestError(
+            400,
+            f"invalid {what} name {name[:80]!r}: letters, digits and _ only, not first a digit",
+        )
 
 
 def _json_type(value: Any) -> str:
@@ -242,29 +141,34 @@ def spec_from_doc(doc: Any, file: str = "<graph>") -> GraphSpec:
     if unknown:
         raise RequestError(400, f"'doc': unknown key(s) {', '.join(unknown)}")
     spec = GraphSpec(file=file, format=str(doc.get("format", FORMAT)))
-    for name, value in _mapping(doc.get("variables"), "'doc.variables'").items():
-        if not name or "\n" in name:
-            raise RequestError(400, f"invalid variable name {name!r}")
+    variables = _mapping(doc.get("variables"), "'doc.variables'")
+    if len(variables) > _MAX_VARIABLES:
+        raise RequestError(400, f"'doc.variables': more than {_MAX_VARIABLES} variables")
+    for name, value in variables.items():
+        _name(name, "variable")
         spec.variables[name] = _text(value, f"variable {name!r}")
     blocks = _mapping(doc.get("blocks"), "'doc.blocks'")
     if len(blocks) > _MAX_BLOCKS:
         raise RequestError(400, f"'doc.blocks': more than {_MAX_BLOCKS} blocks")
     for name, b in blocks.items():
-        if not BLOCK_NAME.match(name):
+        if not BLOCK_NAME.fullmatch(name) or len(name) > 200:
             raise RequestError(
-                400, f"invalid block name {name!r}: letters, digits, _ and -, not first a digit"
+                400,
+                f"invalid block name {name[:80]!r}: letters, digits, _ and -, not first a digit",
             )
         b = _mapping(b, f"block {name!r}")
         extra = sorted(set(b) - {"type", "params"})
         if extra:
             raise RequestError(400, f"block {name!r}: unknown key(s) {', '.join(extra)}")
         btype = b.get("type")
-        if not isinstance(btype, str) or not btype.strip() or "\n" in btype:
+        if not isinstance(btype, str) or not TYPE_NAME.fullmatch(btype) or len(btype) > 200:
             raise RequestError(400, f"block {name!r}: expected 'type', the block type name")
         block = BlockSpec(type=btype)
-        for key, value in _mapping(b.get("params"), f"block {name!r} 'params'").items():
-            if not key or "\n" in key:
-                raise RequestError(400, f"block {name!r}: invalid parameter name {key!r}")
+        params = _mapping(b.get("params"), f"block {name!r} 'params'")
+        if len(params) > _MAX_PARAMS:
+            raise RequestError(400, f"block {name!r}: more than {_MAX_PARAMS} parameters")
+        for key, value in params.items():
+            _name(key, f"block {name!r}: parameter")
             block.params[key] = _text(value, f"block {name!r}, parameter {key!r}")
         spec.blocks[name] = block
     conns = doc.get("connections") or []
@@ -277,9 +181,9 @@ def spec_from_doc(doc: Any, file: str = "<graph>") -> GraphSpec:
         ends = []
         for side in ("src", "dst"):
             end, port = c.get(side), c.get(f"{side}_port")
-            if not isinstance(end, str) or not BLOCK_NAME.match(end):
+            if not isinstance(end, str) or not BLOCK_NAME.fullmatch(end):
                 raise RequestError(400, f"connection {i + 1}: invalid '{side}' block {end!r}")
-            if port is not None and (not isinstance(port, str) or not PORT_NAME.match(port)):
+            if port is not None and (not isinstance(port, str) or not PORT_NAME.fullmatch(port)):
                 raise RequestError(400, f"connection {i + 1}: invalid '{side}_port' {port!r}")
             ends.append(Endpoint(end, port))
         spec.connections.append(ConnectionSpec(ends[0], ends[1]))
@@ -290,28 +194,82 @@ def canonical(doc: Any, file: str = "<graph>") -> tuple[GraphSpec, str]:
     """The document's canonical text, and the graph as the engine reads that text back.
 
     Reading the text back (rather than checking the spec directly) gives every problem the
-    line it has in the file that saving would write.
+    line it has in the file that saving would write. A document whose text would not read
+    back as the same graph is refused (400): nothing is saved or run that reopens otherwise.
     """
-    text = dumps(spec_from_doc(doc, file))
-    return parse(text, file), text
+    spec = spec_from_doc(doc, file)
+    text = dumps(spec)
+    if len(text.encode()) > MAX_GRAPH_BYTES:
+        raise RequestError(
+            400, f"the graph's text would be over {MAX_GRAPH_BYTES} bytes, the graph file limit"
+        )
+    back = parse(text, file)
+    if back.problems or _same(doc_from_spec(back)) != _same(doc_from_spec(spec)):
+        why = "; ".join(p.message for p in back.problems[:3]) or "it reads back differently"
+        raise RequestError(400, f"the document cannot be written as a graph file: {why}")
+    return back, text
 
 
-def check(doc: Any, file: str, disk: str | None = None) -> dict[str, Any]:
+def _same(doc: dict[str, Any]) -> dict[str, Any]:
+    """A document with its wires in the writer's order (the order carries no meaning)."""
+    return doc | {"connections": sorted(doc["connections"], key=json.dumps)}
+
+
+def path_problems(spec: GraphSpec, folder: Folder) -> tuple[GraphSpec, list[Problem]]:
+    """File paths in the graph that leave the served folder, refused before anyone looks.
+
+    Every parameter of type ``path`` (set directly or through a ``$variable``) is checked by
+    :meth:`Folder.path_problem`. Returns the graph with those parameters removed (so that
+    validation does not test whether the files exist) and a problem naming each one.
+    """
+    problems: list[Problem] = []
+    clean = dataclasses.replace(spec, blocks=dict(spec.blocks))
+    for name, b in spec.blocks.items():
+        cls = registry.get(b.type)
+        if cls is None:
+            continue
+        for key, raw in b.params.items():
+            decl = cls.params.get(key)
+            if decl is None or decl.type != "path":
+                continue
+            value = raw
+            if isinstance(raw, str) and raw.startswith("$"):
+                value = spec.variables.get(raw[1:])
+            if not isinstance(value, str) or not value:
+                continue
+            why = folder.path_problem(value)
+            if why:
+                line = b.param_lines.get(key, b.line)
+                problems.append(Problem(spec.file, line, name, f"parameter '{key}'", why))
+                kept = {k: v for k, v in clean.blocks[name].params.items() if k != key}
+                clean.blocks[name] = dataclasses.replace(clean.blocks[name], params=kept)
+    return clean, problems
+
+
+def check(
+    doc: Any, file: str, disk: str | None = None, folder: Folder | None = None
+) -> dict[str, Any]:
     """The engine's verdict on a document: the problems ``pasim validate`` would print.
 
     Lines refer to the text the problems are about: the file on disk (``disk``) while the
-    document is what it holds, else the canonical text that saving would write.
+    document is what it holds, else the canonical text that saving would write. With a
+    ``folder``, file paths in the graph that leave it are refused first
+    (:func:`path_problems`) and the engine never looks at them.
     """
     spec, text = canonical(doc, file)
     if disk is not None and disk != text:
         on_disk = parse(disk, file)
         if not on_disk.problems and doc_from_spec(on_disk) == doc:
             spec = on_disk
+    refused: list[Problem] = []
+    if folder is not None:
+        spec, refused = path_problems(spec, folder)
+    found: list[Problem] = list(refused)
     try:
         resolve(spec)
-        problems: list[dict[str, Any]] = []
     except GraphError as exc:
-        problems = [p.to_json() | {"text": str(p)} for p in exc.problems]
+        found += exc.problems
+    problems = [p.to_json() | {"text": str(p)} for p in found]
     return {"valid": not problems, "problems": problems, "text": text}
 
 
@@ -343,7 +301,11 @@ def open_graph(folder: Folder, rel: str) -> dict[str, Any]:
     # A file the format cannot read fully (not UTF-8, malformed YAML, a bad block entry) would
     # lose the unreadable parts on save: it opens read-only, with the reader's own messages.
     unreadable = [p.to_json() | {"text": str(p)} for p in spec.problems]
-    result = check(doc, rel, text) if not unreadable else {"valid": False, "problems": unreadable}
+    result = (
+        check(doc, rel, text, folder)
+        if not unreadable
+        else {"valid": False, "problems": unreadable}
+    )
     return {
         "path": rel,
         "doc": doc,
@@ -623,23 +585,6 @@ def run_choices(doc: Any) -> dict[str, Any]:
 
 # ---------------------------------------------------------------------------------------------
 # Files: atomic writes, the layout side file
-
-
-def write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` all at once: a temporary file beside it, then a rename."""
-    mode = path.stat().st_mode & 0o777 if path.exists() else None
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        if mode is not None:
-            os.chmod(tmp, mode)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def save(

@@ -26,7 +26,15 @@ from typing import Any
 
 from ..graph import parse_sector
 from ..serialize import json_safe
-from .documents import Folder, RequestError, canonical, diff, read_text, run_choices
+from .documents import (
+    Folder,
+    RequestError,
+    canonical,
+    diff,
+    path_problems,
+    read_text,
+    run_choices,
+)
 
 #: Beams per chunk of a studio run: small, so that progress moves in visible steps (the
 #: numbers do not depend on the chunking).
@@ -93,10 +101,21 @@ class Run:
 class Runs:
     """The runs of one studio session; one runs at a time (a run uses every core)."""
 
-    def __init__(self, folder: Folder, runs_dir: Path, cwd: Path | None = None):
+    def __init__(
+        self,
+        folder: Folder,
+        runs_dir: Path,
+        cwd: Path | None = None,
+        memory_bytes: int | None = None,
+    ):
+        from ..resources import memory_available
+
         self.folder = folder
         self.dir = runs_dir
-        self.cwd = cwd or Path.cwd()
+        #: What a run may allocate beyond the program it loads (:mod:`.capped`): by default
+        #: half the memory available when the studio started.
+        self.memory_bytes = int(memory_bytes or memory_available() // 2)
+        self.cwd = cwd or folder.cwd
         self.runs: dict[str, Run] = {}
         self._ids = itertools.count(1)
         self._lock = threading.Lock()
@@ -112,7 +131,11 @@ class Runs:
         rel = body.get("path") or "untitled.yaml"
         if not isinstance(rel, str):
             raise RequestError(400, "'path' must be text")
-        _, text = canonical(body.get("doc"), rel)
+        spec, text = canonical(body.get("doc"), rel)
+        _, refused = path_problems(spec, self.folder)
+        if refused:
+            # Refused by name, before the run looks at the file (or says whether it exists).
+            raise RequestError(403, "; ".join(str(p) for p in refused))
         args: list[str] = []
         options: dict[str, Any] = {}
         sector = body.get("sector") or ""
@@ -164,7 +187,8 @@ class Runs:
             command = [
                 sys.executable,
                 "-m",
-                "pasim_graph",
+                "pasim_graph.studio.capped",
+                str(self.memory_bytes),
                 "run",
                 str(graph_file),
                 "--out",
@@ -190,7 +214,8 @@ class Runs:
                 command,
             )
             self.runs[run_id] = run
-        env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+        # Fewer allocator arenas: less address space for the same memory (see capped.py).
+        env = {**os.environ, "PYTHONUNBUFFERED": "1", "MALLOC_ARENA_MAX": "2"}
         run.proc = subprocess.Popen(
             command,
             cwd=self.cwd,

@@ -11,7 +11,8 @@ browser, so, as Jupyter's server does, it
 - serves and writes only graph files inside the served folder.
 
 Every error is a JSON object with a message that names what was wrong (``{"error": ...}``);
-none is a traceback page. Standard library only: ``ThreadingHTTPServer``.
+none is a traceback page. Standard library only: ``HTTPServer`` with a bounded pool
+(:mod:`.limits`).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import tempfile
 import threading
 import traceback
 from http import HTTPStatus
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from http.server import BaseHTTPRequestHandler
 from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qs, urlsplit
@@ -34,11 +35,10 @@ from urllib.parse import parse_qs, urlsplit
 from ..interrupt import Stopped, stop_on_signals
 from . import documents as docs
 from .documents import Folder, RequestError
+from .limits import IDLE_TIMEOUT, MAX_BODY, MAX_CONNECTIONS, BoundedHTTPServer, dropped, load_json
 from .runs import Runs
 
 STATIC = Path(__file__).parent / "static"
-MAX_BODY = 8 * 1024 * 1024
-
 _CSP = (
     "default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
     "img-src 'self' data: blob:; connect-src 'self'; frame-ancestors 'none'; "
@@ -46,8 +46,13 @@ _CSP = (
 )
 
 
-class StudioServer(ThreadingHTTPServer):
+class StudioServer(BoundedHTTPServer):
     """The studio for one folder of graphs, on 127.0.0.1; ``url`` is the address with the token.
+
+    The server is bounded: a pool of ``max_connections`` threads serves the connections, one
+    more than that is answered at once with 503, and a connection silent for
+    ``idle_timeout`` seconds is closed; so no number of clients (or of idle browser tabs)
+    makes it hang or grow.
 
     Parameters
     ----------
@@ -63,9 +68,12 @@ class StudioServer(ThreadingHTTPServer):
         The session token; default a fresh random one.
     quiet : bool
         Do not log requests to stderr.
+    run_memory_bytes : int, optional
+        What a run may allocate (:class:`~pasim_graph.studio.runs.Runs`); default half the
+        memory available at start.
+    max_connections, idle_timeout :
+        The bounds above.
     """
-
-    daemon_threads = True
 
     def __init__(
         self,
@@ -76,6 +84,9 @@ class StudioServer(ThreadingHTTPServer):
         runs_dir: str | Path | None = None,
         token: str | None = None,
         quiet: bool = True,
+        run_memory_bytes: int | None = None,
+        max_connections: int = MAX_CONNECTIONS,
+        idle_timeout: float = IDLE_TIMEOUT,
     ):
         self.folder = Folder(folder)
         self.token = token or secrets.token_urlsafe(24)
@@ -84,9 +95,9 @@ class StudioServer(ThreadingHTTPServer):
         self.temporary_runs = runs_dir is None
         runs_path = Path(runs_dir or tempfile.mkdtemp(prefix="pasim-studio-runs-"))
         runs_path.mkdir(parents=True, exist_ok=True)
-        self.runs = Runs(self.folder, runs_path.resolve())
+        self.runs = Runs(self.folder, runs_path.resolve(), memory_bytes=run_memory_bytes)
         # Loopback only, whatever the caller asks: the page can write files.
-        super().__init__(("127.0.0.1", port), Handler)
+        super().__init__(("127.0.0.1", port), Handler, max_connections, idle_timeout)
         self.port = int(self.server_address[1])
         self.allowed_hosts = {f"127.0.0.1:{self.port}", f"localhost:{self.port}"}
         self.allowed_origins = {f"http://{h}" for h in self.allowed_hosts}
@@ -119,6 +130,14 @@ class Handler(BaseHTTPRequestHandler):
     default_request_version = "HTTP/1.0"
 
     # -- plumbing ---------------------------------------------------------------------------
+
+    def handle(self) -> None:
+        try:
+            super().handle()
+        except (ConnectionError, TimeoutError) as exc:
+            what = f" during {self.command} {urlsplit(self.path).path}" if self.command else ""
+            dropped(self.client_address, exc, what)
+            self.close_connection = True
 
     def log_message(self, format: str, *args: Any) -> None:
         # Never log the query string: it holds the token.
@@ -212,15 +231,9 @@ class Handler(BaseHTTPRequestHandler):
             raise RequestError(413, f"request body of {n} bytes is over the {MAX_BODY} limit")
         raw = self.rfile.read(n)
         self._body_read = True
-        try:
-            data = json.loads(raw.decode("utf-8"))
-        except UnicodeDecodeError:
-            raise RequestError(400, "malformed body: not UTF-8 text") from None
-        except json.JSONDecodeError as exc:
-            raise RequestError(400, f"malformed JSON body: {exc}") from None
-        if not isinstance(data, dict):
-            raise RequestError(400, "malformed body: expected a JSON object")
-        return data
+        if len(raw) < n:
+            raise RequestError(400, f"the body ended after {len(raw)} of {n} bytes")
+        return load_json(raw)
 
     # -- routing ----------------------------------------------------------------------------
 
@@ -238,6 +251,8 @@ class Handler(BaseHTTPRequestHandler):
         except RequestError as exc:
             self._drain()
             self._json(exc.status, {"error": exc.message, **exc.extra})
+        except (ConnectionError, TimeoutError):
+            raise  # the client went away: nothing to answer (handle() logs one line)
         except Exception as exc:
             self._drain()
             traceback.print_exc(file=sys.stderr)
@@ -362,7 +377,7 @@ class Handler(BaseHTTPRequestHandler):
             old = docs.read_text(self.server.folder.resolve(rel, must_exist=False))
         except RequestError:
             old = ""
-        result = docs.check(body.get("doc"), rel, old)
+        result = docs.check(body.get("doc"), rel, old, self.server.folder)
         result["diff"] = docs.diff(old, result["text"], rel)
         result["changed"] = old != result["text"]
         result["run_choices"] = docs.run_choices(body.get("doc"))
@@ -376,7 +391,7 @@ class Handler(BaseHTTPRequestHandler):
         out = docs.swap(
             body.get("doc"), str(body.get("block")), body.get("type"), body.get("stash")
         )
-        out["validation"] = docs.check(out["doc"], rel)
+        out["validation"] = docs.check(out["doc"], rel, folder=self.server.folder)
         return out
 
     def post_save(self, body: dict[str, Any]) -> dict[str, Any]:
@@ -388,7 +403,7 @@ class Handler(BaseHTTPRequestHandler):
             body.get("base_sha256"),
             body.get("overwrite", False),
         )
-        out["validation"] = docs.check(body.get("doc"), str(rel))
+        out["validation"] = docs.check(body.get("doc"), str(rel), folder=self.server.folder)
         return out
 
     def post_layout(self, body: dict[str, Any]) -> dict[str, Any]:
