@@ -15,6 +15,7 @@ from pasim_graph import Block, Input, Output, PortType, registry
 from pasim_graph.graph import GraphError, validate
 from pasim_graph.graphfile import parse, read
 from pasim_graph.studio import documents as docs
+from pasim_graph.studio import swaps
 from pasim_graph.studio.documents import RequestError
 
 from .conftest import FIXTURES, GRAPHS, ROOT
@@ -68,7 +69,7 @@ def test_check_gives_the_engines_problems_with_the_saved_lines():
 
 
 def test_swap_options_offer_exactly_the_types_that_fit():
-    options = docs.swap_options(generic(), "hpa")["options"]
+    options = swaps.swap_options(generic(), "hpa")["options"]
     fits = sorted(o["type"] for o in options if o["fits"])
     # Every other amplifier of the library, the other pulse-to-pulse transmitter stage (the
     # power divider), and nothing else, fits the amplifier's wires.
@@ -83,7 +84,7 @@ def test_swap_options_offer_exactly_the_types_that_fit():
     assert "the wire 'tx.pulse -> hpa.pulse_in' needs an input 'pulse_in'" in " ".join(
         pencil["reasons"]
     )
-    options = docs.swap_options(generic(), "antenna")["options"]
+    options = swaps.swap_options(generic(), "antenna")["options"]
     fit = sorted(o["type"] for o in options if o["fits"])
     assert {"antenna.cylindrical", "antenna.ideal", "antenna.planar"} <= set(fit)
     assert all(t.startswith("antenna.") for t in fit)
@@ -102,7 +103,7 @@ def test_a_port_of_the_same_name_but_another_type_is_refused_with_the_engines_di
 
     WidePulse.type_name = "test.wide"
     spec = docs.spec_from_doc(generic())
-    reasons = docs.fit(spec, "hpa", WidePulse)
+    reasons = swaps.fit(spec, "hpa", WidePulse)
     assert len(reasons) == 2
     text = " ".join(reasons)
     # The words of PortType.mismatch, output against input as validation compares them.
@@ -113,10 +114,10 @@ def test_a_port_of_the_same_name_but_another_type_is_refused_with_the_engines_di
 
 def test_swap_drops_what_the_new_type_lacks_and_restores_it_on_the_way_back():
     doc = generic()
-    there = docs.swap(doc, "hpa", "amplifier.ideal")
+    there = swaps.swap(doc, "hpa", "amplifier.ideal")
     assert there["dropped"] == {"input_backoff_db": "0.0"}
     assert there["doc"]["blocks"]["hpa"] == {"type": "amplifier.ideal", "params": {}}
-    back = docs.swap(there["doc"], "hpa", "amplifier.saleh", there["dropped"])
+    back = swaps.swap(there["doc"], "hpa", "amplifier.saleh", there["dropped"])
     assert back["restored"] == {"input_backoff_db": "0.0"}
     assert docs.canonical(back["doc"])[1] == (GRAPHS / "generic_radar.yaml").read_text()
     assert doc == generic()  # the request's document is never changed in place
@@ -124,7 +125,7 @@ def test_swap_drops_what_the_new_type_lacks_and_restores_it_on_the_way_back():
 
 def test_swap_refuses_a_misfit_with_every_reason():
     with pytest.raises(RequestError) as err:
-        docs.swap(generic(), "hpa", "antenna.pencil")
+        swaps.swap(generic(), "hpa", "antenna.pencil")
     assert err.value.status == 409
     assert len(err.value.extra["reasons"]) == 2
     assert err.value.message.startswith("cannot swap 'hpa' to antenna.pencil: its ports")
@@ -136,7 +137,7 @@ def test_a_wire_that_leaves_out_its_port_must_stay_resolvable():
         if c["src"] == "tx" and c["dst"] == "hpa":
             c["src_port"] = c["dst_port"] = None  # "tx -> hpa"
     assert docs.check(doc, "g.yaml")["valid"]
-    options = {o["type"]: o for o in docs.swap_options(doc, "hpa")["options"]}
+    options = {o["type"]: o for o in swaps.swap_options(doc, "hpa")["options"]}
     assert options["amplifier.ideal"]["fits"]
     # filter.matched has two inputs: "tx -> hpa" would no longer say which one.
     reasons = " ".join(options["filter.matched"]["reasons"])

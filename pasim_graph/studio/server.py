@@ -34,6 +34,7 @@ from urllib.parse import parse_qs, urlsplit
 
 from ..interrupt import Stopped, stop_on_signals
 from . import documents as docs
+from . import swaps
 from .documents import Folder, RequestError
 from .limits import IDLE_TIMEOUT, MAX_BODY, MAX_CONNECTIONS, BoundedHTTPServer, dropped, load_json
 from .runs import Runs
@@ -384,11 +385,11 @@ class Handler(BaseHTTPRequestHandler):
         return result
 
     def post_swap_options(self, body: dict[str, Any]) -> dict[str, Any]:
-        return docs.swap_options(body.get("doc"), str(body.get("block")))
+        return swaps.swap_options(body.get("doc"), str(body.get("block")))
 
     def post_swap(self, body: dict[str, Any]) -> dict[str, Any]:
         rel = self._path_of(body)
-        out = docs.swap(
+        out = swaps.swap(
             body.get("doc"), str(body.get("block")), body.get("type"), body.get("stash")
         )
         out["validation"] = docs.check(out["doc"], rel, folder=self.server.folder)
