@@ -400,10 +400,11 @@ def run_choices(doc: Any) -> dict[str, Any]:
     try:
         spec = spec_from_doc(doc)
     except RequestError:
-        return {"levels": [], "sector": None}
+        return {"levels": [], "sector": None, "current": ""}
     classes = {n: registry.get(b.type) for n, b in spec.blocks.items()}
     known = {n: c for n, c in classes.items() if c is not None}
     levels: list[dict[str, Any]] = []
+    current = ""
     owners = [n for n, c in known.items() if c.fidelity_ladder]
     methods = [n for n, c in known.items() if "method" in c.params and c.params["method"].choices]
     if len(owners) == 1:
@@ -420,12 +421,23 @@ def run_choices(doc: Any) -> dict[str, Any]:
                     "set": {k: format_value(v) for k, v in full.items()},
                 }
             )
+        # The rung the graph itself runs at, if its values are exactly one rung's.
+        own = spec.blocks[name].params
+        for level in levels:
+            if all(
+                format_value(own.get(k, cls.params[k].default)) == v
+                for k, v in level["set"].items()
+            ):
+                current = level["label"]
+                break
     elif len(methods) == 1:
         name = methods[0]
         for choice in known[name].params["method"].choices or ():
             levels.append(
                 {"label": str(choice), "block": name, "set": {"method": format_value(choice)}}
             )
+        own = spec.blocks[name].params.get("method", known[name].params["method"].default)
+        current = str(own) if own in (known[name].params["method"].choices or ()) else ""
     sector = None
     scans = [n for n, c in known.items() if c.role == "scan"]
     if len(scans) == 1:
@@ -440,7 +452,7 @@ def run_choices(doc: Any) -> dict[str, Any]:
             vals.append(raw)
         if len(vals) == 2 and all(isinstance(v, (int, float)) for v in vals):
             sector = f"{vals[0]:g}:{vals[1]:g}"
-    return {"levels": levels, "sector": sector}
+    return {"levels": levels, "sector": sector, "current": current}
 
 
 # ---------------------------------------------------------------------------------------------

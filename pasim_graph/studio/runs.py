@@ -201,12 +201,19 @@ class Runs:
             ]
             what = ", ".join(str(options[k]) for k in ("sector", "level") if k in options)
             edits = self._edits(rel, text)
+            tail = (f" with {edits}" if edits else "") + (f" ({what})" if what else "")
+            # Runs of different systems must not share a name: when this one's would repeat
+            # an earlier run's, it says what differs from that run instead.
+            same = [
+                r
+                for r in self.runs.values()
+                if r.label.partition(": ")[2] == f"{Path(rel).name}{tail}"
+            ]
+            if same and same[-1].text != text:
+                tail += f", unlike run {same[-1].id}: {_changes(same[-1].text, text)}"
             run = Run(
                 run_id,
-                label
-                or f"run {run_id}: {Path(rel).name}"
-                + (f" with {edits}" if edits else "")
-                + (f" ({what})" if what else ""),
+                label or f"run {run_id}: {Path(rel).name}{tail}",
                 rel,
                 text,
                 options,
@@ -233,29 +240,11 @@ class Runs:
 
     def _edits(self, rel: str, text: str) -> str:
         """The blocks a run's graph changes from the file on disk, for its label."""
-        from ..graphfile import format_value, parse
-
         try:
             disk = read_text(self.folder.resolve(rel))
         except RequestError:
             return "unsaved edits"
-        old, new = parse(disk), parse(text)
-        out = []
-        for name in sorted(set(old.blocks) | set(new.blocks)):
-            a, b = old.blocks.get(name), new.blocks.get(name)
-            if a is None or b is None:
-                out.append(f"{'+' if a is None else '-'}{name}")
-            elif a.type != b.type:
-                out.append(f"{name}: {b.type}")
-            else:
-                for k in sorted(set(a.params) | set(b.params)):
-                    if a.params.get(k) != b.params.get(k):
-                        out.append(f"{name}.{k}={format_value(b.params.get(k))}")
-        if sorted(map(str, old.connections)) != sorted(map(str, new.connections)):
-            out.append("rewired")
-        if old.variables != new.variables:
-            out.append("variables changed")
-        return ", ".join(out[:3]) + (", ..." if len(out) > 3 else "")
+        return _changes(disk, text)
 
     def _watch_output(self, run: Run) -> None:
         assert run.proc is not None and run.proc.stdout is not None
@@ -319,6 +308,16 @@ class Runs:
             for name, png in pictures:
                 (run.folder / f"{name}.png").write_bytes(png)
                 run.images.append(name)
+
+    def rename(self, run_id: str, label: Any) -> Run:
+        """Give a run the name the user typed (kept for the session, shown everywhere)."""
+        run = self.get(run_id)
+        if not isinstance(label, str) or not label.strip() or len(label) > 200:
+            raise RequestError(400, "'label' must be text of 1 to 200 characters")
+        if any(ord(c) < 32 for c in label):
+            raise RequestError(400, "'label' must be one line of text")
+        run.label = label.strip()
+        return run
 
     def cancel(self, run_id: str) -> Run:
         run = self.get(run_id)
@@ -389,3 +388,26 @@ def _failure(log: list[str]) -> str:
         if re.match(r"^\d+ problems? in the graph:", line) or line.startswith("error: "):
             return "\n".join(log[i:])
     return "\n".join(log[-15:]) or "the run stopped without saying why"
+
+
+def _changes(old_text: str, new_text: str) -> str:
+    """What a graph's text changes from another's, in a few words (at most three items)."""
+    from ..graphfile import format_value, parse
+
+    old, new = parse(old_text), parse(new_text)
+    out = []
+    for name in sorted(set(old.blocks) | set(new.blocks)):
+        a, b = old.blocks.get(name), new.blocks.get(name)
+        if a is None or b is None:
+            out.append(f"{'+' if a is None else '-'}{name}")
+        elif a.type != b.type:
+            out.append(f"{name}: {b.type}")
+        else:
+            for k in sorted(set(a.params) | set(b.params)):
+                if a.params.get(k) != b.params.get(k):
+                    out.append(f"{name}.{k}={format_value(b.params.get(k))}")
+    if sorted(map(str, old.connections)) != sorted(map(str, new.connections)):
+        out.append("rewired")
+    if old.variables != new.variables:
+        out.append("variables changed")
+    return ", ".join(out[:3]) + (", ..." if len(out) > 3 else "")

@@ -292,10 +292,12 @@ class Handler(BaseHTTPRequestHandler):
                 return self._json(200, self.server.runs.get(m[1]).to_json())
             raise RequestError(404, f"no such page or API: GET {path}")
         post = _POST.get(path)
-        m = re.fullmatch(r"/api/runs/(\w+)/cancel", path)
+        m = re.fullmatch(r"/api/runs/(\w+)/(cancel|label)", path)
         if post is None and m is None:
             raise RequestError(404, f"no such API: POST {path}")
         body = self._body()
+        if m and m[2] == "label":
+            return self._json(200, self.server.runs.rename(m[1], body.get("label")).to_json())
         if m:
             return self._json(200, self.server.runs.cancel(m[1]).to_json())
         assert post is not None
