@@ -127,7 +127,15 @@ def swap(page, block, to):
         "(want) => document.querySelector('[data-testid=swap-message]')?.innerText.includes(want)",
         arg=f"'{block}' to {to}",
     )
-    return page.inner_text("[data-testid=swap-message]")
+    said = page.inner_text("[data-testid=swap-message]")
+    if said.startswith("Swapped"):
+        # The message and the redrawn block may come in separate frames.
+        page.wait_for_function(
+            "([b, t]) => document.querySelector(`[data-testid=block-${b}] .block-type`)"
+            "?.innerText.startsWith(t)",
+            arg=[block, to],
+        )
+    return said
 
 
 def set_param(page, name, text):
@@ -372,7 +380,8 @@ def test_a_refused_path_is_shown_and_the_page_stays_usable(browser, studio):
 def test_variables_changes_tab_and_svg_export(page, folder):
     import xml.etree.ElementTree as ET
 
-    page.click(".react-flow__pane", position={"x": 30, "y": 30})  # select nothing: the graph
+    # Select nothing (the graph): a click on the canvas's left edge, below the summary.
+    page.click(".react-flow__pane", position={"x": 8, "y": 300})
     field = page.locator("[data-testid=inspector-graph] input[type=text] >> nth=0")
     assert field.input_value() == "2800000000.0"
     field.fill("2700000000.0")

@@ -15,6 +15,8 @@ import {
 import { useCallback, useEffect, useMemo, useRef, useState } from "react";
 import { api, connText, subsystem } from "./api.js";
 import BlockNode from "./BlockNode.jsx";
+import { ContextMenu, Glance, Legend, ShortcutsDialog, Splitter, SummaryTable } from "./Chrome.jsx";
+import { loadEdits, loadPanels, loadView, saveEdits, savePanels, saveView } from "./persist.js";
 import { StudioContext } from "./context.js";
 import Inspector from "./Inspector.jsx";
 import Palette from "./Palette.jsx";
@@ -49,6 +51,21 @@ function resolvePort(ports, port) {
   return ports.length === 1 ? ports[0].name : null;
 }
 
+// Block titles are 13 px; below this zoom they read smaller than 11 px.
+const MIN_LEGIBLE_ZOOM = 11 / 13 + 0.01;
+
+function initialPanels() {
+  const saved = loadPanels();
+  const wide = window.innerWidth;
+  return {
+    left: saved.left || 220,
+    right: saved.right || 390,
+    dock: saved.dock || Math.round(window.innerHeight * 0.42),
+    leftOpen: saved.leftOpen ?? wide >= 1100,
+    rightOpen: saved.rightOpen ?? wide >= 760,
+  };
+}
+
 function samePoint(a, b) {
   return a && b && a[0] === b[0] && a[1] === b[1];
 }
@@ -76,6 +93,13 @@ function Studio() {
   const [comparison, setComparison] = useState(null);
   const [dock, setDock] = useState("result");
   const [dockOpen, setDockOpen] = useState(false);
+  const [panels, setPanelsState] = useState(initialPanels);
+  const [menu, setMenu] = useState(null);
+  const [showKeys, setShowKeys] = useState(false);
+  const [historyTick, setHistoryTick] = useState(0);
+  const canvasRef = useRef(null);
+  const forceSelect = useRef(null); // blocks to select on the next canvas update
+  const clipboard = useRef(null);
   const positions = useRef({});
   const stash = useRef({});
   const validateSeq = useRef(0);
@@ -101,30 +125,59 @@ function Studio() {
         positions.current = { ...g.layout.auto.positions, ...g.layout.positions };
         stash.current = {};
         history.current = { undo: [], redo: [] };
+        let shownDoc = g.doc;
+        let checked = { ...g.validation, diff: "", changed: false, run_choices: g.run_choices };
+        let note = g.layout.note ? { kind: "warn", text: g.layout.note } : null;
+        // This tab's edits and undo steps of the file, kept across a reload, while the file
+        // on disk is still the one they were made on.
+        const kept = g.editable ? loadEdits(g.path) : null;
+        if (kept && kept.sha256 === g.sha256) {
+          history.current = { undo: kept.undo || [], redo: kept.redo || [] };
+          if (JSON.stringify(kept.doc) !== JSON.stringify(g.doc)) {
+            try {
+              checked = await api("validate", { path: g.path, doc: kept.doc });
+              shownDoc = kept.doc;
+              note = { kind: "info", text: `Your unsaved edits of ${g.path} are back (kept by this tab).` };
+            } catch {
+              history.current = { undo: [], redo: [] };
+            }
+          }
+        }
         setAuto(g.layout.auto);
         setGraph({ path: g.path, sha256: g.sha256, canonical: g.canonical, editable: g.editable });
-        setDoc(g.doc);
-        setValidation({ ...g.validation, diff: "", changed: false, run_choices: g.run_choices });
+        setDoc(shownDoc);
+        setValidation(checked);
         setSelection(null);
         setSwapMessage(null);
-        setNotice(g.layout.note ? { kind: "warn", text: g.layout.note } : null);
+        setNotice(note);
         const url = new URL(window.location.href);
         url.searchParams.set("graph", g.path);
         window.history.replaceState(null, "", url);
-        setTimeout(() => rf.fitView({ padding: 0.08 }), 60);
+        setTimeout(() => fitLegible(), 60);
         return true;
       } catch (err) {
         say("error", err.message);
         return false;
       }
     },
-    [rf, say],
+    [say], // eslint-disable-line react-hooks/exhaustive-deps
   );
 
   useEffect(() => {
     (async () => {
       try {
-        const [s, p, t] = await Promise.all([api("session"), api("palette"), api("truths")]);
+        const [s, p, t, r] = await Promise.all([api("session"), api("palette"), api("truths"), api("runs")]);
+        // The server keeps the session's runs: a reload shows them, and what was on view.
+        const view = loadView();
+        const ids = r.runs.map((x) => x.id);
+        setRuns(r.runs);
+        if (ids.includes(view.shownRun)) setShownRun(view.shownRun);
+        const done = r.runs.filter((x) => x.state === "done").map((x) => x.id);
+        if ((view.compare || []).every((id) => done.includes(id))) setCompare(view.compare || []);
+        if (view.tab) setTab(view.tab);
+        if (view.dock) setDock(view.dock);
+        if (view.dockOpen) setDockOpen(true);
+        viewRestored.current = true;
         setSession(s);
         setPalette(p);
         setGraphs(s.graphs);
@@ -141,10 +194,69 @@ function Studio() {
     })();
   }, [openGraph, say]);
 
+  // The whole graph if its titles stay legible (>= 11 px), else as much of it as fits at that
+  // zoom, from its left end (where the signal starts); the minimap shows the rest.
+  const fitLegible = useCallback(() => {
+    const ns = rf.getNodes();
+    const el = canvasRef.current;
+    if (!ns.length || !el) return;
+    const w = el.clientWidth;
+    const h = el.clientHeight;
+    const xs = ns.map((n) => n.position.x);
+    const ys = ns.map((n) => n.position.y);
+    const x0 = Math.min(...xs);
+    const y0 = Math.min(...ys);
+    const x1 = Math.max(...ns.map((n) => n.position.x + (n.measured?.width || 210)));
+    const y1 = Math.max(...ns.map((n) => n.position.y + (n.measured?.height || 100)));
+    const pad = 30;
+    const fit = Math.min((w - 2 * pad) / (x1 - x0), (h - 2 * pad) / (y1 - y0), 1.2);
+    const zoom = Math.max(fit, MIN_LEGIBLE_ZOOM);
+    const x = fit >= MIN_LEGIBLE_ZOOM ? (w - (x1 - x0) * zoom) / 2 - x0 * zoom : pad - x0 * zoom;
+    // Below the summary that sits over the top of the canvas.
+    const top = (el.querySelector(".glance")?.offsetHeight || 0) + 16;
+    const y = (y1 - y0) * zoom <= h - top - pad ? top + (h - top - pad - (y1 - y0) * zoom) / 2 - y0 * zoom : top - y0 * zoom;
+    rf.setViewport({ x, y, zoom });
+  }, [rf]);
+
+  // -- what survives a reload -------------------------------------------------------------
+
+  useEffect(() => {
+    if (graph?.path && graph.editable) saveEdits(graph.path, { sha256: graph.sha256, doc, ...history.current });
+  }, [graph, doc, historyTick]);
+
+  const viewRestored = useRef(false);
+  useEffect(() => {
+    // Not before the saved view was read back: the first render's defaults would replace it.
+    if (viewRestored.current) saveView({ shownRun, compare, tab, dock, dockOpen });
+  }, [shownRun, compare, tab, dock, dockOpen]);
+
+  const setPanels = useCallback((change) => {
+    setPanelsState((p) => {
+      const next = { ...p, ...change };
+      savePanels(next);
+      return next;
+    });
+  }, []);
+
+  // Leaving with edits not saved: the browser asks first.
+  const unsaved = Boolean(validation?.changed);
+  useEffect(() => {
+    if (!unsaved) return;
+    const warn = (e) => {
+      e.preventDefault();
+      e.returnValue = "";
+    };
+    window.addEventListener("beforeunload", warn);
+    return () => window.removeEventListener("beforeunload", warn);
+  }, [unsaved]);
+
   // -- the canvas, from the document -------------------------------------------------------
 
   useEffect(() => {
     if (!palette) return;
+    const forced = forceSelect.current;
+    forceSelect.current = null;
+    const keys = validation?.keys || {};
     setNodes((prev) => {
       const old = Object.fromEntries(prev.map((n) => [n.id, n]));
       return Object.entries(doc.blocks).map(([name, block]) => {
@@ -160,9 +272,10 @@ function Studio() {
           id: name,
           type: "block",
           position,
-          selected: selection?.kind === "block" && selection.id === name,
+          selected: forced ? forced.includes(name) : Boolean(old[name]?.selected),
           data: {
             type: block.type,
+            keys: keys[name] || [],
             known: Boolean(face),
             inputs,
             outputs,
@@ -172,7 +285,7 @@ function Studio() {
         };
       });
     });
-  }, [doc, faces, palette, problems, selection]);
+  }, [doc, faces, palette, problems, selection, validation]);
 
   useEffect(() => {
     if (!palette) return;
@@ -205,6 +318,13 @@ function Studio() {
     );
   }, [doc, faces, palette, problems, selection, auto]);
 
+  // Select these blocks (and show the one in the inspector): now, and once they exist.
+  const selectBlocks = useCallback((names) => {
+    forceSelect.current = names;
+    setNodes((ns) => ns.map((n) => ({ ...n, selected: names.includes(n.id) })));
+    setSelection(names.length === 1 ? { kind: "block", id: names[0] } : null);
+  }, []);
+
   // -- edits: every one is checked by the engine before the page takes it -------------------
 
   const commit = useCallback(
@@ -216,6 +336,7 @@ function Studio() {
         if (record) {
           history.current.undo.push(doc);
           history.current.redo = [];
+          setHistoryTick((t) => t + 1);
         }
         setDoc(next);
         setValidation(v);
@@ -235,6 +356,7 @@ function Studio() {
       if (!prev) return;
       if (await commit(prev, { record: false })) history.current[to].push(doc);
       else history.current[from].push(prev);
+      setHistoryTick((t) => t + 1);
     },
     [commit, doc],
   );
@@ -249,9 +371,9 @@ function Studio() {
       const centre = rf.screenToFlowPosition({ x: window.innerWidth / 2, y: window.innerHeight / 3 });
       const p = at || centre;
       positions.current[name] = [Math.round(p.x), Math.round(p.y)];
-      if (await commit(next)) setSelection({ kind: "block", id: name });
+      if (await commit(next)) selectBlocks([name]);
     },
-    [doc, commit, rf],
+    [doc, commit, rf], // eslint-disable-line react-hooks/exhaustive-deps
   );
 
   const deleteBlocks = useCallback(
@@ -274,6 +396,79 @@ function Studio() {
     },
     [doc, commit],
   );
+
+  const picked = useCallback(() => {
+    const names = rf.getNodes().filter((n) => n.selected).map((n) => n.id);
+    if (!names.length && selection?.kind === "block") names.push(selection.id);
+    return names.filter((n) => doc.blocks[n]);
+  }, [rf, selection, doc]);
+
+  // Copy: the blocks with their parameters, the wires whose both ends are copied, and where
+  // they sit (kept by the browser, so a copy can go to another graph or tab).
+  const copyBlocks = useCallback(
+    (names = picked()) => {
+      if (!names.length) return null;
+      const clip = {
+        blocks: Object.fromEntries(names.map((n) => [n, clone(doc.blocks[n])])),
+        wires: doc.connections.filter((c) => names.includes(c.src) && names.includes(c.dst)),
+        positions: Object.fromEntries(names.map((n) => [n, positions.current[n] || [0, 0]])),
+      };
+      clipboard.current = clip;
+      try {
+        window.localStorage.setItem("pasim-studio:clipboard", JSON.stringify(clip));
+      } catch {
+        // the copy stays in this page only
+      }
+      return clip;
+    },
+    [doc, picked],
+  );
+
+  const pasteBlocks = useCallback(
+    async (clip = null, offset = 40) => {
+      let from = clip || clipboard.current;
+      if (!from) {
+        try {
+          from = JSON.parse(window.localStorage.getItem("pasim-studio:clipboard") || "null");
+        } catch {
+          from = null;
+        }
+      }
+      if (!from || !Object.keys(from.blocks || {}).length) {
+        say("info", "Nothing to paste: select blocks and copy them first (Ctrl+C).");
+        return;
+      }
+      const next = clone(doc);
+      const renamed = {};
+      const placed = {};
+      for (const [name, block] of Object.entries(from.blocks)) {
+        const base = name.replace(/\d+$/, "") || "block";
+        let fresh = base;
+        for (let i = 2; next.blocks[fresh]; i += 1) fresh = `${base}${i}`;
+        renamed[name] = fresh;
+        next.blocks[fresh] = clone(block);
+        const p = from.positions?.[name] || [0, 0];
+        placed[fresh] = [p[0] + offset, p[1] + offset];
+      }
+      for (const c of from.wires || []) next.connections.push({ ...c, src: renamed[c.src], dst: renamed[c.dst] });
+      Object.assign(positions.current, placed);
+      if (await commit(next)) {
+        const names = Object.values(renamed);
+        selectBlocks(names);
+        const wires = (from.wires || []).length;
+        say("ok", `Pasted ${names.join(", ")}${wires ? ` with ${wires} wire${wires > 1 ? "s" : ""}` : ""}.`);
+        saveLayout();
+      } else for (const n of Object.keys(placed)) delete positions.current[n];
+    },
+    [doc, commit, say, selectBlocks], // eslint-disable-line react-hooks/exhaustive-deps
+  );
+
+  const duplicateBlocks = useCallback(() => {
+    const clip = copyBlocks();
+    if (clip) pasteBlocks(clip);
+  }, [copyBlocks, pasteBlocks]);
+
+  const selectAll = useCallback(() => selectBlocks(Object.keys(doc.blocks)), [doc, selectBlocks]);
 
   const setParam = useCallback(
     (block, param, text) => {
@@ -366,7 +561,7 @@ function Studio() {
 
   const onNodesChange = useCallback((changes) => {
     // Removal goes through the document (onDelete); everything else is the canvas's own.
-    const kept = changes.filter((c) => c.type !== "remove" && c.type !== "select");
+    const kept = changes.filter((c) => c.type !== "remove");
     for (const c of kept) if (c.type === "position" && c.position) positions.current[c.id] = [c.position.x, c.position.y];
     setNodes((ns) => applyNodeChanges(kept, ns));
   }, []);
@@ -400,12 +595,12 @@ function Studio() {
       positions.current = { ...a.positions };
       setAuto(a);
       setNodes((ns) => ns.map((n) => ({ ...n, position: { x: a.positions[n.id][0], y: a.positions[n.id][1] } })));
-      setTimeout(() => rf.fitView({ padding: 0.08 }), 60);
+      setTimeout(() => fitLegible(), 60);
       saveLayout();
     } catch (err) {
       say("error", err.message);
     }
-  }, [doc, rf, saveLayout, say]);
+  }, [doc, fitLegible, saveLayout, say]);
 
   const onConnect = useCallback(
     (p) => {
@@ -492,8 +687,26 @@ function Studio() {
 
   useEffect(() => {
     const onKey = (e) => {
-      if (!(e.ctrlKey || e.metaKey)) return;
       const inField = ["INPUT", "SELECT", "TEXTAREA"].includes(document.activeElement?.tagName);
+      if (e.key === "?" && !inField && !e.ctrlKey && !e.metaKey) {
+        e.preventDefault();
+        setShowKeys(true);
+        return;
+      }
+      if (!(e.ctrlKey || e.metaKey)) return;
+      const key = e.key.toLowerCase();
+      if (!inField && editable && ["c", "v", "d", "a"].includes(key) && !e.shiftKey) {
+        // In a text field, the field's own; on the canvas, the graph's.
+        if (key === "c" && window.getSelection()?.toString()) return; // copying page text
+        e.preventDefault();
+        if (key === "c") {
+          const clip = copyBlocks();
+          if (clip) say("info", `Copied ${Object.keys(clip.blocks).join(", ")} (Ctrl+V pastes).`);
+        } else if (key === "v") pasteBlocks();
+        else if (key === "d") duplicateBlocks();
+        else selectAll();
+        return;
+      }
       if (e.key === "s") {
         e.preventDefault();
         if (editable) save();
@@ -505,7 +718,7 @@ function Studio() {
     };
     window.addEventListener("keydown", onKey);
     return () => window.removeEventListener("keydown", onKey);
-  }, [save, undo, editable]);
+  }, [save, undo, editable, copyBlocks, pasteBlocks, duplicateBlocks, selectAll, say]);
 
   // -- runs -------------------------------------------------------------------------------
 
@@ -578,9 +791,97 @@ function Studio() {
 
   // The canvas changes size when the dock opens or closes: keep the whole graph in view.
   useEffect(() => {
-    const timer = setTimeout(() => rf.fitView({ padding: 0.08 }), 80);
+    const timer = setTimeout(() => fitLegible(), 80);
     return () => clearTimeout(timer);
-  }, [dockOpen, rf]);
+  }, [dockOpen, panels.leftOpen, panels.rightOpen, fitLegible]);
+
+  const renameRun = useCallback(
+    async (id, label) => {
+      try {
+        const fresh = await api(`runs/${id}/label`, { label });
+        setRuns((rs) => rs.map((x) => (x.id === fresh.id ? { ...x, label: fresh.label } : x)));
+      } catch (err) {
+        say("error", err.message);
+      }
+    },
+    [say],
+  );
+
+  // The kinds of signal the graph's wires carry, for the legend.
+  const wireKinds = useMemo(() => {
+    const kinds = new Set();
+    for (const c of doc.connections) {
+      const face = faces[doc.blocks[c.src]?.type];
+      const outs = face?.outputs || [];
+      const port = c.src_port || (outs.length === 1 ? outs[0].name : null);
+      const kind = outs.find((o) => o.name === port)?.type?.kind;
+      if (kind) kinds.add(kind);
+    }
+    return [...kinds].sort();
+  }, [doc, faces]);
+
+  const blockMenu = useCallback(
+    (e, node) => {
+      e.preventDefault();
+      if (!node.selected) selectBlocks([node.id]);
+      const names = node.selected ? picked() : [node.id];
+      const many = names.length > 1 ? ` (${names.length})` : "";
+      setMenu({
+        x: e.clientX,
+        y: e.clientY,
+        label: `actions for ${names.join(", ")}`,
+        items: [
+          { label: `Duplicate${many}`, keys: "Ctrl+D", run: () => pasteBlocks(copyBlocks(names)), disabled: !editable },
+          { label: `Copy${many}`, keys: "Ctrl+C", run: () => copyBlocks(names) },
+          { label: "Paste", keys: "Ctrl+V", run: () => pasteBlocks(), disabled: !editable },
+          {
+            label: "Swap type…",
+            run: () => {
+              selectBlocks([node.id]);
+              setPanels({ rightOpen: true });
+              setTab("inspect");
+            },
+            disabled: names.length > 1,
+          },
+          { label: `Delete${many}`, keys: "Delete", run: () => deleteBlocks(names), disabled: !editable },
+        ],
+      });
+    },
+    [selectBlocks, picked, pasteBlocks, copyBlocks, deleteBlocks, editable, setPanels],
+  );
+
+  const paneMenu = useCallback(
+    (e) => {
+      e.preventDefault();
+      setMenu({
+        x: e.clientX,
+        y: e.clientY,
+        label: "canvas actions",
+        items: [
+          { label: "Paste", keys: "Ctrl+V", run: () => pasteBlocks(), disabled: !editable },
+          { label: "Select all", keys: "Ctrl+A", run: selectAll },
+          { label: "Auto layout", run: autoLayout },
+          { label: "Fit to view", run: () => rf.fitView({ padding: 0.08 }) },
+          { label: "Keyboard shortcuts", keys: "?", run: () => setShowKeys(true) },
+        ],
+      });
+    },
+    [pasteBlocks, selectAll, autoLayout, rf, editable],
+  );
+
+  const wireMenu = useCallback(
+    (e, edge) => {
+      e.preventDefault();
+      setSelection({ kind: "wire", id: edge.id });
+      setMenu({
+        x: e.clientX,
+        y: e.clientY,
+        label: `actions for the wire ${edge.id}`,
+        items: [{ label: "Delete wire", keys: "Delete", run: () => deleteWires([edge.id]), disabled: !editable }],
+      });
+    },
+    [deleteWires, editable],
+  );
 
   if (!palette || !graph) {
     return (
@@ -595,8 +896,26 @@ function Studio() {
 
   return (
     <StudioContext.Provider value={studioContext}>
-      <div className={`app${dockOpen ? " dock-open" : ""}`}>
+      <div
+        className={`app${dockOpen ? " dock-open" : ""}${panels.leftOpen ? "" : " left-closed"}${panels.rightOpen ? "" : " right-closed"}`}
+        style={{
+          "--left-width": `${panels.leftOpen ? panels.left : 0}px`,
+          "--right-width": `${panels.rightOpen ? panels.right : 0}px`,
+          "--dock-height": `${panels.dock}px`,
+        }}
+      >
         <header className="topbar">
+          <button
+            type="button"
+            className="panel-toggle"
+            aria-pressed={panels.leftOpen}
+            aria-label={panels.leftOpen ? "hide the block palette" : "show the block palette"}
+            title="show or hide the block palette"
+            onClick={() => setPanels({ leftOpen: !panels.leftOpen })}
+            data-testid="toggle-left"
+          >
+            ◧
+          </button>
           <div className="brand">PASIM-graph studio</div>
           <select
             value={graphs.includes(graph.path) ? graph.path : ""}
@@ -638,6 +957,20 @@ function Studio() {
           <button type="button" onClick={saveAs} disabled={!editable}>Save as…</button>
           <button type="button" onClick={autoLayout} data-testid="auto-layout">Auto layout</button>
           <button type="button" onClick={exportSvg}>SVG</button>
+          <button type="button" onClick={() => setShowKeys(true)} aria-label="keyboard shortcuts" title="keyboard shortcuts (?)">
+            ?
+          </button>
+          <button
+            type="button"
+            className="panel-toggle"
+            aria-pressed={panels.rightOpen}
+            aria-label={panels.rightOpen ? "hide the inspector panel" : "show the inspector panel"}
+            title="show or hide the inspector, problems, changes and runs"
+            onClick={() => setPanels({ rightOpen: !panels.rightOpen })}
+            data-testid="toggle-right"
+          >
+            ◨
+          </button>
           <span className={`status ${validation?.valid ? "ok" : "bad"}`} data-testid="status">
             {validation?.valid ? "valid" : `${problems.length} problem${problems.length === 1 ? "" : "s"}`}
           </span>
@@ -656,10 +989,23 @@ function Studio() {
             </span>
           )}
         </header>
-        <aside className="left">
+        <aside className="left" hidden={!panels.leftOpen} aria-label="block palette">
           <Palette palette={palette} onAdd={(t) => addBlock(t)} editable={editable} />
         </aside>
+        {panels.leftOpen && (
+          <Splitter
+            label="resize the block palette"
+            orientation="vertical"
+            value={panels.left}
+            min={150}
+            max={480}
+            onChange={(v) => setPanels({ left: v })}
+            className="left-edge"
+          />
+        )}
         <main
+          ref={canvasRef}
+          aria-label="the graph"
           className="canvas"
           onDragOver={(e) => {
             e.preventDefault();
@@ -690,18 +1036,39 @@ function Studio() {
               setTab("inspect");
             }}
             onPaneClick={() => setSelection(null)}
+            onNodeContextMenu={blockMenu}
+            onPaneContextMenu={paneMenu}
+            onEdgeContextMenu={wireMenu}
+            onSelectionContextMenu={(e) => {
+              const first = rf.getNodes().find((n) => n.selected);
+              if (first) blockMenu(e, first);
+            }}
+            multiSelectionKeyCode={["Shift", "Control", "Meta"]}
             nodesConnectable={editable}
             deleteKeyCode={editable ? ["Delete", "Backspace"] : null}
             minZoom={0.1}
-            fitView
             proOptions={{ hideAttribution: true }}
           >
             <Background gap={20} size={1} />
-            <MiniMap pannable zoomable nodeStrokeWidth={3} />
+            <MiniMap pannable zoomable nodeStrokeWidth={3} ariaLabel="overview of the whole graph" />
             <Controls showInteractive={false} />
           </ReactFlow>
+          <Glance summary={validation?.summary} />
+          <Legend kinds={wireKinds} colors={palette.kind_colors} />
         </main>
-        <aside className="right">
+        {panels.rightOpen && (
+          <Splitter
+            label="resize the inspector panel"
+            orientation="vertical"
+            value={panels.right}
+            min={260}
+            max={760}
+            invert
+            onChange={(v) => setPanels({ right: v })}
+            className="right-edge"
+          />
+        )}
+        <aside className="right" hidden={!panels.rightOpen} aria-label="inspector, problems, changes and runs">
           <nav className="tabs">
             {[
               ["inspect", "Inspector"],
@@ -723,6 +1090,7 @@ function Studio() {
           <div className="tab-body">
             {tab === "inspect" && (
               <Inspector
+                summaryTable={<SummaryTable summary={validation?.summary} />}
                 selection={selection}
                 doc={doc}
                 graph={graph}
@@ -751,7 +1119,7 @@ function Studio() {
                     className="problem clickable"
                     onClick={() => {
                       if (p.block && doc.blocks[p.block]) {
-                        setSelection({ kind: "block", id: p.block });
+                        selectBlocks([p.block]);
                         setTab("inspect");
                       }
                     }}
@@ -770,6 +1138,7 @@ function Studio() {
             {tab === "run" && (
               <div>
                 <RunForm
+                  graphPath={graph.path}
                   choices={validation?.run_choices}
                   truths={truths}
                   onRun={startRun}
@@ -788,6 +1157,7 @@ function Studio() {
                   }}
                   onCompare={toggleCompare}
                   onCancel={cancelRun}
+                  onRename={renameRun}
                 />
                 {compare.length === 1 && <div className="muted">Tick a second run to compare.</div>}
                 <div className="muted runs-dir">
@@ -797,7 +1167,19 @@ function Studio() {
             )}
           </div>
         </aside>
-        <section className="dock" data-testid="dock">
+        {dockOpen && (
+          <Splitter
+            label="resize the results dock"
+            orientation="horizontal"
+            value={panels.dock}
+            min={120}
+            max={Math.max(160, window.innerHeight - 160)}
+            invert
+            onChange={(v) => setPanels({ dock: v })}
+            className="dock-edge"
+          />
+        )}
+        <section className="dock" data-testid="dock" aria-label="results">
           <nav className="tabs">
             <button type="button" className={dock === "result" ? "active" : ""} onClick={() => { setDock("result"); setDockOpen(true); }}>
               Result{shown ? `: ${shown.label}` : ""}
@@ -811,7 +1193,14 @@ function Studio() {
             >
               Compare{comparison ? ` ${comparison.a.id} ↔ ${comparison.b.id}` : " (tick two runs)"}
             </button>
-            <button type="button" className="link dock-toggle" onClick={() => setDockOpen(!dockOpen)}>
+            <button
+              type="button"
+              className="link dock-toggle"
+              onClick={() => setDockOpen(!dockOpen)}
+              aria-expanded={dockOpen}
+              aria-label={dockOpen ? "hide the results dock" : "show the results dock"}
+              data-testid="dock-toggle"
+            >
               {dockOpen ? "hide ▾" : "show ▴"}
             </button>
           </nav>
@@ -822,6 +1211,8 @@ function Studio() {
             </div>
           )}
         </section>
+        {menu && <ContextMenu menu={menu} onClose={() => setMenu(null)} />}
+        {showKeys && <ShortcutsDialog onClose={() => setShowKeys(false)} />}
       </div>
     </StudioContext.Provider>
   );

@@ -24,7 +24,7 @@ function PortHandle({ side, port, color, hollow, hint }) {
 function BlockNode({ id, data, selected }) {
   const { colors, feeds } = useContext(StudioContext);
   const connection = useConnection();
-  const { type, known, inputs, outputs, wiredInputs, problems } = data;
+  const { type, known, inputs, outputs, wiredInputs, problems, keys = [] } = data;
   const rows = Math.max(inputs.length, outputs.length, 1);
 
   // While a wire is being drawn from an output, mark the inputs it can feed: the server's
@@ -75,7 +75,18 @@ function BlockNode({ id, data, selected }) {
       data-testid={`block-${id}`}
     >
       <div className="block-header">
-        <div className="block-name">{id}</div>
+        <div className="block-title">
+          <div className="block-name">{id}</div>
+          {keys.length > 0 && (
+            <div
+              className="block-keys"
+              title={keys.map((k) => `${k.name} = ${k.text}`).join("\n")}
+              data-testid={`block-keys-${id}`}
+            >
+              {keys.map((k) => k.text).join(" · ")}
+            </div>
+          )}
+        </div>
         <div className="block-type">{type}{known ? "" : " (unknown type)"}</div>
         {problems > 0 && (
           <div className="block-badge" title={`${problems} problem${problems > 1 ? "s" : ""}`}>

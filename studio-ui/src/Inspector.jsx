@@ -8,7 +8,7 @@ function problemsFor(problems, block, item) {
   return problems.filter((p) => p.block === block && (item === undefined || p.item === item));
 }
 
-function ValueInput({ value, onCommit, placeholder, testid, disabled, choices, kind }) {
+function ValueInput({ value, onCommit, placeholder, testid, disabled, choices, kind, label, id }) {
   const [text, setText] = useState(value ?? "");
   useEffect(() => setText(value ?? ""), [value]);
   const commit = (t) => {
@@ -22,6 +22,8 @@ function ValueInput({ value, onCommit, placeholder, testid, disabled, choices, k
         value={text}
         disabled={disabled}
         data-testid={testid}
+        aria-label={label}
+        id={id}
         onChange={(e) => {
           setText(e.target.value);
           commit(e.target.value);
@@ -44,6 +46,8 @@ function ValueInput({ value, onCommit, placeholder, testid, disabled, choices, k
       placeholder={placeholder}
       disabled={disabled}
       data-testid={testid}
+      aria-label={label}
+      id={id}
       spellCheck={false}
       onChange={(e) => setText(e.target.value)}
       onBlur={() => commit(text)}
@@ -147,6 +151,7 @@ function SwapBox({ name, block, options, onSwap, swapMessage, editable }) {
           value={choice}
           onChange={(e) => setChoice(e.target.value)}
           data-testid="swap-select"
+          aria-label={`new type for '${name}'`}
           disabled={!editable}
         >
           <option value="">choose a type…</option>
@@ -256,6 +261,8 @@ function BlockPanel(props) {
                 kind={p.type}
                 disabled={!editable}
                 testid={`param-input-${p.name}`}
+                id={`param-${name}-${p.name}`}
+                label={`${p.name}${p.units ? ` (${p.units})` : ""}`}
                 onCommit={(t) => onParam(name, p.name, t)}
               />
               {p.doc && <div className="muted param-doc">{p.doc}</div>}
@@ -325,7 +332,7 @@ function WirePanel({ wire, faces, doc, problems, onDeleteWire, editable }) {
   );
 }
 
-function GraphPanel({ graph, doc, validation, onVariable, editable }) {
+function GraphPanel({ graph, doc, validation, onVariable, editable, summaryTable }) {
   const [newName, setNewName] = useState("");
   return (
     <div className="inspector" data-testid="inspector-graph">
@@ -343,6 +350,7 @@ function GraphPanel({ graph, doc, validation, onVariable, editable }) {
           The file cannot be read completely (see Problems); edit it by hand, the studio only shows it.
         </div>
       )}
+      {summaryTable}
       <div className="section">
         <div className="panel-subtitle">Variables</div>
         {Object.entries(doc.variables || {}).map(([k, v]) => (
@@ -353,12 +361,21 @@ function GraphPanel({ graph, doc, validation, onVariable, editable }) {
                 remove
               </button>
             </div>
-            <ValueInput value={v} placeholder="value" disabled={!editable} onCommit={(t) => onVariable(k, t)} />
+            <ValueInput
+              value={v}
+              placeholder="value"
+              disabled={!editable}
+              label={`value of $${k}`}
+              testid={`variable-input-${k}`}
+              onCommit={(t) => onVariable(k, t)}
+            />
           </div>
         ))}
         <div className="row">
           <input
             placeholder="new variable"
+            aria-label="name of a new variable"
+            data-testid="new-variable"
             value={newName}
             disabled={!editable}
             onChange={(e) => setNewName(e.target.value)}

@@ -1,21 +1,26 @@
 // Running the graph as edited, following the run, and reading the results: the score table
 // with pass and fail, the PPIs of every moment, and two runs side by side.
-import { useEffect, useState } from "react";
+import { useEffect, useRef, useState } from "react";
 import { imageUrl } from "./api.js";
 
 const fmt = (v, digits = 4) => (v === null || v === undefined || Number.isNaN(v) ? "–" : Number(v).toPrecision(digits));
 const signed = (v) => (v === null || v === undefined ? "–" : `${v > 0 ? "+" : ""}${Number(v).toPrecision(3)}`);
 
-export function RunForm({ choices, truths, onRun, running, graphValid }) {
+export function RunForm({ graphPath, choices, truths, onRun, running, graphValid }) {
   const [truth, setTruth] = useState("");
-  const [sector, setSector] = useState("280:290");
-  const [level, setLevel] = useState("");
+  const [sector, setSector] = useState(choices?.sector || "");
+  const [level, setLevel] = useState(choices?.current || "");
   const [seed, setSeed] = useState("0");
+  const touched = useRef({});
   const levels = choices?.levels || [];
+  // The graph's own sector and level, until the user picks others (per graph file).
   useEffect(() => {
-    // Default to the fastest level that still draws noise ("combined"), if the graph has one.
-    if (!level && levels.some((l) => l.label === "combined")) setLevel("combined");
-  }, [levels, level]);
+    touched.current = {};
+  }, [graphPath]);
+  useEffect(() => {
+    if (!touched.current.sector) setSector(choices?.sector || "");
+    if (!touched.current.level) setLevel(choices?.current || "");
+  }, [graphPath, choices?.sector, choices?.current]);
   return (
     <form
       className="run-form"
@@ -40,15 +45,25 @@ export function RunForm({ choices, truths, onRun, running, graphValid }) {
         sector (deg)
         <input
           value={sector}
-          onChange={(e) => setSector(e.target.value)}
+          onChange={(e) => {
+            touched.current.sector = true;
+            setSector(e.target.value);
+          }}
           placeholder={choices?.sector ? `as in the graph: ${choices.sector}` : "AZ0:AZ1"}
           data-testid="run-sector"
         />
       </label>
       <label>
         fidelity
-        <select value={level} onChange={(e) => setLevel(e.target.value)} data-testid="run-level">
-          <option value="">as in the graph</option>
+        <select
+          value={level}
+          onChange={(e) => {
+            touched.current.level = true;
+            setLevel(e.target.value);
+          }}
+          data-testid="run-level"
+        >
+          <option value="">as in the graph{choices?.current ? ` (${choices.current})` : ""}</option>
           {levels.map((l) => (
             <option key={l.label} value={l.label} title={Object.entries(l.set).map(([k, v]) => `${l.block}.${k}=${v}`).join(" ")}>
               {l.label}
@@ -71,20 +86,63 @@ export function RunForm({ choices, truths, onRun, running, graphValid }) {
   );
 }
 
-export function RunList({ runs, shown, compare, onShow, onCompare, onCancel }) {
+function RunName({ run, onShow, onRename }) {
+  const [editing, setEditing] = useState(false);
+  const [text, setText] = useState(run.label);
+  useEffect(() => setText(run.label), [run.label]);
+  if (editing)
+    return (
+      <input
+        className="run-name-input"
+        value={text}
+        autoFocus
+        aria-label={`name of run ${run.id}`}
+        data-testid={`run-name-${run.id}`}
+        onChange={(e) => setText(e.target.value)}
+        onBlur={() => {
+          setEditing(false);
+          if (text.trim() && text !== run.label) onRename(run.id, text.trim());
+        }}
+        onKeyDown={(e) => {
+          if (e.key === "Enter") e.currentTarget.blur();
+          if (e.key === "Escape") {
+            setText(run.label);
+            setEditing(false);
+          }
+        }}
+      />
+    );
+  return (
+    <div className="run-name">
+      <button type="button" className="link run-label" onClick={() => onShow(run.id)} onDoubleClick={() => setEditing(true)}>
+        {run.label}
+      </button>
+      <button
+        type="button"
+        className="link"
+        onClick={() => setEditing(true)}
+        aria-label={`rename run ${run.id}`}
+        title="rename this run"
+        data-testid={`rename-${run.id}`}
+      >
+        ✎
+      </button>
+    </div>
+  );
+}
+
+export function RunList({ runs, shown, compare, onShow, onCompare, onCancel, onRename }) {
   if (!runs.length) return <div className="muted">No runs yet.</div>;
   return (
     <div className="run-list" data-testid="run-list">
       {runs.map((r) => (
         <div key={r.id} className={`run-item ${r.state}${shown === r.id ? " shown" : ""}`} data-testid={`run-${r.id}`}>
-          <button type="button" className="link run-label" onClick={() => onShow(r.id)}>
-            {r.label}
-          </button>
+          <RunName run={r} onShow={onShow} onRename={onRename} />
           <div className="run-state">
             {r.state === "running" || r.state === "starting" ? (
               <>
                 <progress max="1" value={r.progress} data-testid={`run-progress-${r.id}`} /> {r.phase}{" "}
-                <button type="button" className="link" onClick={() => onCancel(r.id)}>
+                <button type="button" className="link" onClick={() => onCancel(r.id)} aria-label={`cancel run ${r.id}`}>
                   cancel
                 </button>
               </>
@@ -100,6 +158,7 @@ export function RunList({ runs, shown, compare, onShow, onCompare, onCancel }) {
                 type="checkbox"
                 checked={compare.includes(r.id)}
                 onChange={() => onCompare(r.id)}
+                aria-label={`compare run ${r.id}`}
                 data-testid={`compare-${r.id}`}
               />
               compare
@@ -172,7 +231,7 @@ export function RunResult({ run }) {
           <div className="images">
             {run.images.map((m) => (
               <figure key={m} data-testid={`ppi-${m}`}>
-                <img src={imageUrl(run.id, m)} alt={`${m}: truth, estimate and error`} loading="lazy" />
+                <Picture src={imageUrl(run.id, m)} alt={`${m}: truth, estimate and error`} />
               </figure>
             ))}
           </div>
@@ -182,12 +241,86 @@ export function RunResult({ run }) {
   );
 }
 
+// A picture that opens large on a click (Escape or a click closes it).
+export function Picture({ src, alt }) {
+  const [open, setOpen] = useState(false);
+  useEffect(() => {
+    if (!open) return;
+    const key = (e) => e.key === "Escape" && setOpen(false);
+    window.addEventListener("keydown", key);
+    return () => window.removeEventListener("keydown", key);
+  }, [open]);
+  return (
+    <>
+      <button type="button" className="picture" onClick={() => setOpen(true)} aria-label={`open large: ${alt}`}>
+        <img src={src} alt={alt} loading="lazy" />
+      </button>
+      {open && (
+        <div className="lightbox" role="dialog" aria-modal="true" aria-label={alt} onClick={() => setOpen(false)} data-testid="lightbox">
+          <img src={src} alt={alt} />
+          <button type="button" className="lightbox-close" onClick={() => setOpen(false)} aria-label="close the picture">
+            ×
+          </button>
+        </div>
+      )}
+    </>
+  );
+}
+
+// Where two pictures differ: |B − A| per pixel (black where they are the same). Both runs
+// are drawn on fixed colour scales and the same map, so what lights up is what changed.
+function Difference({ a, b, moment }) {
+  const ref = useRef(null);
+  const [note, setNote] = useState("computing…");
+  useEffect(() => {
+    let live = true;
+    const load = (src) =>
+      new Promise((resolve, reject) => {
+        const img = new Image();
+        img.onload = () => resolve(img);
+        img.onerror = reject;
+        img.src = src;
+      });
+    Promise.all([load(a), load(b)])
+      .then(([ia, ib]) => {
+        if (!live || !ref.current) return;
+        const canvas = ref.current;
+        canvas.width = Math.max(ia.naturalWidth, ib.naturalWidth);
+        canvas.height = Math.max(ia.naturalHeight, ib.naturalHeight);
+        const ctx = canvas.getContext("2d");
+        ctx.fillStyle = "#fff";
+        ctx.fillRect(0, 0, canvas.width, canvas.height);
+        ctx.drawImage(ia, 0, 0);
+        ctx.globalCompositeOperation = "difference";
+        ctx.drawImage(ib, 0, 0);
+        const data = ctx.getImageData(0, 0, canvas.width, canvas.height).data;
+        let changed = 0;
+        for (let i = 0; i < data.length; i += 4) if (data[i] + data[i + 1] + data[i + 2] > 24) changed += 1;
+        const share = (100 * changed) / (data.length / 4);
+        setNote(changed ? `${share.toFixed(1)} % of the picture differs` : "the two pictures are identical");
+      })
+      .catch(() => live && setNote("the pictures could not be loaded"));
+    return () => {
+      live = false;
+    };
+  }, [a, b]);
+  return (
+    <figure className="difference" data-testid={`compare-diff-${moment}`}>
+      <figcaption>
+        |B − A|: {moment} <span className="muted">{note}</span>
+      </figcaption>
+      <canvas ref={ref} role="img" aria-label={`where the ${moment} pictures of A and B differ`} />
+    </figure>
+  );
+}
+
 function first(scores) {
   const v = Object.values(scores || {});
   return v.length ? v[0] : null;
 }
 
 export function Comparison({ data }) {
+  const [view, setView] = useState("side");
   if (!data) return null;
   const { a, b, rows } = data;
   const better = (x) => (x < 0 ? "better" : x > 0 ? "worse" : "");
@@ -244,18 +377,34 @@ export function Comparison({ data }) {
         )}
       </div>
       </div>
+      <div className="row compare-view" role="group" aria-label="how to show the pictures">
+        <span className="muted">Pictures:</span>
+        <button type="button" aria-pressed={view === "side"} onClick={() => setView("side")} data-testid="view-side">
+          side by side
+        </button>
+        <button type="button" aria-pressed={view === "diff"} onClick={() => setView("diff")} data-testid="view-diff">
+          difference |B − A|
+        </button>
+      </div>
       <div className="images side-by-side">
         {a.images.map((m) => (
           <div className="pair" key={m} data-testid={`compare-ppi-${m}`}>
-            <figure>
-              <figcaption>A: {m}</figcaption>
-              <img src={imageUrl(a.id, m)} alt={`run A ${m}`} loading="lazy" />
-            </figure>
-            {b.images.includes(m) && (
-              <figure>
-                <figcaption>B: {m}</figcaption>
-                <img src={imageUrl(b.id, m)} alt={`run B ${m}`} loading="lazy" />
-              </figure>
+            {view === "side" && (
+              <>
+                <figure>
+                  <figcaption>A: {m}</figcaption>
+                  <Picture src={imageUrl(a.id, m)} alt={`run A ${m}`} />
+                </figure>
+                {b.images.includes(m) && (
+                  <figure>
+                    <figcaption>B: {m}</figcaption>
+                    <Picture src={imageUrl(b.id, m)} alt={`run B ${m}`} />
+                  </figure>
+                )}
+              </>
+            )}
+            {view === "diff" && b.images.includes(m) && (
+              <Difference a={imageUrl(a.id, m)} b={imageUrl(b.id, m)} moment={m} />
             )}
           </div>
         ))}
