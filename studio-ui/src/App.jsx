@@ -16,11 +16,18 @@ import { useCallback, useEffect, useMemo, useRef, useState } from "react";
 import { api, connText, subsystem } from "./api.js";
 import BlockNode from "./BlockNode.jsx";
 import { ContextMenu, Glance, Legend, ShortcutsDialog, Splitter, SummaryTable } from "./Chrome.jsx";
-import { loadEdits, loadPanels, loadView, saveEdits, savePanels, saveView } from "./persist.js";
+import { blockNodes, copyOf, legibleViewport, pasteInto, wireEdges } from "./canvas.js";
+import { initialPanels, loadEdits, loadView, saveEdits, savePanels, saveView } from "./persist.js";
 import { StudioContext } from "./context.js";
 import Inspector from "./Inspector.jsx";
 import Palette from "./Palette.jsx";
-import { Comparison, RunForm, RunList, RunResult } from "./Runs.jsx";
+import Dock from "./Dock.jsx";
+import { RunForm, RunList } from "./Runs.jsx";
+import SidePanel from "./SidePanel.jsx";
+import Topbar from "./Topbar.jsx";
+import useRuns from "./useRuns.js";
+import useShortcuts from "./useShortcuts.js";
+import { blockMenuItems, paneMenuItems } from "./menus.js";
 import WireEdge from "./WireEdge.jsx";
 
 const nodeTypes = { block: BlockNode };
@@ -30,44 +37,6 @@ const EMPTY_DOC = { format: "pasim-graph/1", variables: {}, blocks: {}, connecti
 
 function clone(x) {
   return JSON.parse(JSON.stringify(x));
-}
-
-// The ports a block shows: its type's declared ports, or (unknown type) those its wires name.
-function portsOf(name, block, face, doc) {
-  if (face) return { inputs: face.inputs, outputs: face.outputs };
-  const inputs = [];
-  const outputs = [];
-  for (const c of doc.connections) {
-    if (c.dst === name && !inputs.some((p) => p.name === (c.dst_port || "in")))
-      inputs.push({ name: c.dst_port || "in", type: null, required: true });
-    if (c.src === name && !outputs.some((p) => p.name === (c.src_port || "out")))
-      outputs.push({ name: c.src_port || "out", type: null });
-  }
-  return { inputs, outputs };
-}
-
-function resolvePort(ports, port) {
-  if (port) return port;
-  return ports.length === 1 ? ports[0].name : null;
-}
-
-// Block titles are 13 px; below this zoom they read smaller than 11 px.
-const MIN_LEGIBLE_ZOOM = 11 / 13 + 0.01;
-
-function initialPanels() {
-  const saved = loadPanels();
-  const wide = window.innerWidth;
-  return {
-    left: saved.left || 220,
-    right: saved.right || 390,
-    dock: saved.dock || Math.round(window.innerHeight * 0.42),
-    leftOpen: saved.leftOpen ?? wide >= 1100,
-    rightOpen: saved.rightOpen ?? wide >= 760,
-  };
-}
-
-function samePoint(a, b) {
-  return a && b && a[0] === b[0] && a[1] === b[1];
 }
 
 function Studio() {
@@ -87,10 +56,6 @@ function Studio() {
   const [swapMessage, setSwapMessage] = useState(null);
   const [notice, setNotice] = useState(null);
   const [tab, setTab] = useState("inspect");
-  const [runs, setRuns] = useState([]);
-  const [shownRun, setShownRun] = useState(null);
-  const [compare, setCompare] = useState([]);
-  const [comparison, setComparison] = useState(null);
   const [dock, setDock] = useState("result");
   const [dockOpen, setDockOpen] = useState(false);
   const [panels, setPanelsState] = useState(initialPanels);
@@ -115,6 +80,12 @@ function Studio() {
   const editable = Boolean(graph?.editable);
 
   const say = useCallback((kind, text, action) => setNotice({ kind, text, action }), []);
+  const showDock = useCallback((which) => {
+    setDock(which);
+    setDockOpen(true);
+  }, []);
+  const { runs, setRuns, shownRun, setShownRun, compare, setCompare, comparison, startRun, cancelRun, toggleCompare, renameRun } =
+    useRuns({ graph, doc, say, showDock });
 
   // -- loading -----------------------------------------------------------------------------
 
@@ -197,25 +168,12 @@ function Studio() {
   // The whole graph if its titles stay legible (>= 11 px), else as much of it as fits at that
   // zoom, from its left end (where the signal starts); the minimap shows the rest.
   const fitLegible = useCallback(() => {
-    const ns = rf.getNodes();
     const el = canvasRef.current;
-    if (!ns.length || !el) return;
-    const w = el.clientWidth;
-    const h = el.clientHeight;
-    const xs = ns.map((n) => n.position.x);
-    const ys = ns.map((n) => n.position.y);
-    const x0 = Math.min(...xs);
-    const y0 = Math.min(...ys);
-    const x1 = Math.max(...ns.map((n) => n.position.x + (n.measured?.width || 210)));
-    const y1 = Math.max(...ns.map((n) => n.position.y + (n.measured?.height || 100)));
-    const pad = 30;
-    const fit = Math.min((w - 2 * pad) / (x1 - x0), (h - 2 * pad) / (y1 - y0), 1.2);
-    const zoom = Math.max(fit, MIN_LEGIBLE_ZOOM);
-    const x = fit >= MIN_LEGIBLE_ZOOM ? (w - (x1 - x0) * zoom) / 2 - x0 * zoom : pad - x0 * zoom;
+    if (!el) return;
     // Below the summary that sits over the top of the canvas.
     const top = (el.querySelector(".glance")?.offsetHeight || 0) + 16;
-    const y = (y1 - y0) * zoom <= h - top - pad ? top + (h - top - pad - (y1 - y0) * zoom) / 2 - y0 * zoom : top - y0 * zoom;
-    rf.setViewport({ x, y, zoom });
+    const view = legibleViewport(rf.getNodes(), el.clientWidth, el.clientHeight, top);
+    if (view) rf.setViewport(view);
   }, [rf]);
 
   // -- what survives a reload -------------------------------------------------------------
@@ -257,65 +215,13 @@ function Studio() {
     const forced = forceSelect.current;
     forceSelect.current = null;
     const keys = validation?.keys || {};
-    setNodes((prev) => {
-      const old = Object.fromEntries(prev.map((n) => [n.id, n]));
-      return Object.entries(doc.blocks).map(([name, block]) => {
-        const face = faces[block.type];
-        const { inputs, outputs } = portsOf(name, block, face, doc);
-        const wiredInputs = doc.connections
-          .filter((c) => c.dst === name)
-          .map((c) => resolvePort(inputs, c.dst_port));
-        const pos = positions.current[name] || old[name]?.position || { x: 0, y: 0 };
-        const position = Array.isArray(pos) ? { x: pos[0], y: pos[1] } : pos;
-        return {
-          ...(old[name] || {}),
-          id: name,
-          type: "block",
-          position,
-          selected: forced ? forced.includes(name) : Boolean(old[name]?.selected),
-          data: {
-            type: block.type,
-            keys: keys[name] || [],
-            known: Boolean(face),
-            inputs,
-            outputs,
-            wiredInputs,
-            problems: problems.filter((p) => p.block === name).length,
-          },
-        };
-      });
-    });
+    setNodes((prev) => blockNodes({ doc, faces, problems, keys, prev, forced, positions: positions.current }));
   }, [doc, faces, palette, problems, selection, validation]);
 
   useEffect(() => {
     if (!palette) return;
-    const colors = palette.kind_colors;
-    setEdges(() =>
-      doc.connections.map((c) => {
-        const text = connText(c);
-        const src = doc.blocks[c.src];
-        const dst = doc.blocks[c.dst];
-        const srcPorts = src ? portsOf(c.src, src, faces[src.type], doc).outputs : [];
-        const dstPorts = dst ? portsOf(c.dst, dst, faces[dst.type], doc).inputs : [];
-        const sp = resolvePort(srcPorts, c.src_port) || c.src_port || "out";
-        const dp = resolvePort(dstPorts, c.dst_port) || c.dst_port || "in";
-        const kind = srcPorts.find((p) => p.name === sp)?.type?.kind;
-        const unmoved =
-          samePoint(positions.current[c.src], auto.positions[c.src]) &&
-          samePoint(positions.current[c.dst], auto.positions[c.dst]);
-        const problem = problems.some((p) => p.item.includes(`'${text}'`) || p.message.includes(`'${text}'`));
-        return {
-          id: text,
-          source: c.src,
-          sourceHandle: sp,
-          target: c.dst,
-          targetHandle: dp,
-          type: "wire",
-          selected: selection?.kind === "wire" && selection.id === text,
-          data: { color: colors[kind], route: unmoved ? auto.routes[text] : null, problem },
-        };
-      }),
-    );
+    const context = { doc, faces, problems, selection, auto, colors: palette.kind_colors, positions: positions.current };
+    setEdges(wireEdges(context));
   }, [doc, faces, palette, problems, selection, auto]);
 
   // Select these blocks (and show the one in the inspector): now, and once they exist.
@@ -408,11 +314,7 @@ function Studio() {
   const copyBlocks = useCallback(
     (names = picked()) => {
       if (!names.length) return null;
-      const clip = {
-        blocks: Object.fromEntries(names.map((n) => [n, clone(doc.blocks[n])])),
-        wires: doc.connections.filter((c) => names.includes(c.src) && names.includes(c.dst)),
-        positions: Object.fromEntries(names.map((n) => [n, positions.current[n] || [0, 0]])),
-      };
+      const clip = copyOf(doc, names, positions.current);
       clipboard.current = clip;
       try {
         window.localStorage.setItem("pasim-studio:clipboard", JSON.stringify(clip));
@@ -425,7 +327,7 @@ function Studio() {
   );
 
   const pasteBlocks = useCallback(
-    async (clip = null, offset = 40) => {
+    async (clip = null) => {
       let from = clip || clipboard.current;
       if (!from) {
         try {
@@ -438,19 +340,7 @@ function Studio() {
         say("info", "Nothing to paste: select blocks and copy them first (Ctrl+C).");
         return;
       }
-      const next = clone(doc);
-      const renamed = {};
-      const placed = {};
-      for (const [name, block] of Object.entries(from.blocks)) {
-        const base = name.replace(/\d+$/, "") || "block";
-        let fresh = base;
-        for (let i = 2; next.blocks[fresh]; i += 1) fresh = `${base}${i}`;
-        renamed[name] = fresh;
-        next.blocks[fresh] = clone(block);
-        const p = from.positions?.[name] || [0, 0];
-        placed[fresh] = [p[0] + offset, p[1] + offset];
-      }
-      for (const c of from.wires || []) next.connections.push({ ...c, src: renamed[c.src], dst: renamed[c.dst] });
+      const { next, renamed, placed } = pasteInto(doc, from);
       Object.assign(positions.current, placed);
       if (await commit(next)) {
         const names = Object.values(renamed);
@@ -685,104 +575,21 @@ function Studio() {
     }
   }, [nodes, graph, doc, say]);
 
-  useEffect(() => {
-    const onKey = (e) => {
-      const inField = ["INPUT", "SELECT", "TEXTAREA"].includes(document.activeElement?.tagName);
-      if (e.key === "?" && !inField && !e.ctrlKey && !e.metaKey) {
-        e.preventDefault();
-        setShowKeys(true);
-        return;
-      }
-      if (!(e.ctrlKey || e.metaKey)) return;
-      const key = e.key.toLowerCase();
-      if (!inField && editable && ["c", "v", "d", "a"].includes(key) && !e.shiftKey) {
-        // In a text field, the field's own; on the canvas, the graph's.
-        if (key === "c" && window.getSelection()?.toString()) return; // copying page text
-        e.preventDefault();
-        if (key === "c") {
-          const clip = copyBlocks();
-          if (clip) say("info", `Copied ${Object.keys(clip.blocks).join(", ")} (Ctrl+V pastes).`);
-        } else if (key === "v") pasteBlocks();
-        else if (key === "d") duplicateBlocks();
-        else selectAll();
-        return;
-      }
-      if (e.key === "s") {
-        e.preventDefault();
-        if (editable) save();
-      } else if ((e.key === "z" || e.key === "Z" || e.key === "y") && !inField && editable) {
-        // In a text field, the field's own undo; on the canvas, the graph's.
-        e.preventDefault();
-        undo(e.key === "y" || e.shiftKey);
-      }
-    };
-    window.addEventListener("keydown", onKey);
-    return () => window.removeEventListener("keydown", onKey);
-  }, [save, undo, editable, copyBlocks, pasteBlocks, duplicateBlocks, selectAll, say]);
+  useShortcuts({
+    editable,
+    save,
+    undo,
+    duplicateBlocks,
+    selectAll,
+    pasteBlocks,
+    showKeys: () => setShowKeys(true),
+    copyBlocks: () => {
+      const clip = copyBlocks();
+      if (clip) say("info", `Copied ${Object.keys(clip.blocks).join(", ")} (Ctrl+V pastes).`);
+    },
+  });
 
   // -- runs -------------------------------------------------------------------------------
-
-  const startRun = useCallback(
-    async (opts) => {
-      try {
-        const run = await api("runs", { path: graph.path, doc, ...opts });
-        setRuns((rs) => [...rs, run]);
-        setShownRun(run.id);
-        setDock("result");
-        setDockOpen(true);
-      } catch (err) {
-        say("error", err.message);
-      }
-    },
-    [graph, doc, say],
-  );
-
-  const active = runs.filter((r) => ["starting", "running", "drawing"].includes(r.state));
-  useEffect(() => {
-    if (!active.length) return;
-    const timer = setInterval(async () => {
-      for (const r of active) {
-        try {
-          const fresh = await api(`runs/${r.id}`);
-          setRuns((rs) => rs.map((x) => (x.id === fresh.id ? fresh : x)));
-        } catch (err) {
-          say("error", err.message);
-        }
-      }
-    }, 400);
-    return () => clearInterval(timer);
-  }, [active.map((r) => r.id).join(","), say]); // eslint-disable-line react-hooks/exhaustive-deps
-
-  const cancelRun = useCallback(
-    async (id) => {
-      try {
-        const fresh = await api(`runs/${id}/cancel`, {});
-        setRuns((rs) => rs.map((x) => (x.id === fresh.id ? fresh : x)));
-      } catch (err) {
-        say("error", err.message);
-      }
-    },
-    [say],
-  );
-
-  const toggleCompare = useCallback((id) => {
-    setCompare((c) => (c.includes(id) ? c.filter((x) => x !== id) : [...c, id].slice(-2)));
-  }, []);
-
-  useEffect(() => {
-    if (compare.length !== 2) {
-      setComparison(null);
-      return;
-    }
-    const [a, b] = [...compare].sort((x, y) => Number(x) - Number(y));
-    api(`compare?a=${a}&b=${b}`)
-      .then((c) => {
-        setComparison(c);
-        setDock("compare");
-        setDockOpen(true);
-      })
-      .catch((err) => say("error", err.message));
-  }, [compare, say]);
 
   const studioContext = useMemo(
     () => ({ colors: palette?.kind_colors || {}, feeds: palette?.feeds || {} }),
@@ -794,18 +601,6 @@ function Studio() {
     const timer = setTimeout(() => fitLegible(), 80);
     return () => clearTimeout(timer);
   }, [dockOpen, panels.leftOpen, panels.rightOpen, fitLegible]);
-
-  const renameRun = useCallback(
-    async (id, label) => {
-      try {
-        const fresh = await api(`runs/${id}/label`, { label });
-        setRuns((rs) => rs.map((x) => (x.id === fresh.id ? { ...x, label: fresh.label } : x)));
-      } catch (err) {
-        say("error", err.message);
-      }
-    },
-    [say],
-  );
 
   // The kinds of signal the graph's wires carry, for the legend.
   const wireKinds = useMemo(() => {
@@ -820,68 +615,40 @@ function Studio() {
     return [...kinds].sort();
   }, [doc, faces]);
 
-  const blockMenu = useCallback(
-    (e, node) => {
-      e.preventDefault();
-      if (!node.selected) selectBlocks([node.id]);
-      const names = node.selected ? picked() : [node.id];
-      const many = names.length > 1 ? ` (${names.length})` : "";
-      setMenu({
-        x: e.clientX,
-        y: e.clientY,
-        label: `actions for ${names.join(", ")}`,
-        items: [
-          { label: `Duplicate${many}`, keys: "Ctrl+D", run: () => pasteBlocks(copyBlocks(names)), disabled: !editable },
-          { label: `Copy${many}`, keys: "Ctrl+C", run: () => copyBlocks(names) },
-          { label: "Paste", keys: "Ctrl+V", run: () => pasteBlocks(), disabled: !editable },
-          {
-            label: "Swap type…",
-            run: () => {
-              selectBlocks([node.id]);
-              setPanels({ rightOpen: true });
-              setTab("inspect");
-            },
-            disabled: names.length > 1,
-          },
-          { label: `Delete${many}`, keys: "Delete", run: () => deleteBlocks(names), disabled: !editable },
-        ],
-      });
-    },
-    [selectBlocks, picked, pasteBlocks, copyBlocks, deleteBlocks, editable, setPanels],
-  );
+  const openMenu = useCallback((e, label, items) => {
+    e.preventDefault();
+    setMenu({ x: e.clientX, y: e.clientY, label, items });
+  }, []);
 
-  const paneMenu = useCallback(
-    (e) => {
-      e.preventDefault();
-      setMenu({
-        x: e.clientX,
-        y: e.clientY,
-        label: "canvas actions",
-        items: [
-          { label: "Paste", keys: "Ctrl+V", run: () => pasteBlocks(), disabled: !editable },
-          { label: "Select all", keys: "Ctrl+A", run: selectAll },
-          { label: "Auto layout", run: autoLayout },
-          { label: "Fit to view", run: () => rf.fitView({ padding: 0.08 }) },
-          { label: "Keyboard shortcuts", keys: "?", run: () => setShowKeys(true) },
-        ],
-      });
-    },
-    [pasteBlocks, selectAll, autoLayout, rf, editable],
-  );
-
-  const wireMenu = useCallback(
-    (e, edge) => {
-      e.preventDefault();
-      setSelection({ kind: "wire", id: edge.id });
-      setMenu({
-        x: e.clientX,
-        y: e.clientY,
-        label: `actions for the wire ${edge.id}`,
-        items: [{ label: "Delete wire", keys: "Delete", run: () => deleteWires([edge.id]), disabled: !editable }],
-      });
-    },
-    [deleteWires, editable],
-  );
+  const blockMenu = (e, node) => {
+    if (!node.selected) selectBlocks([node.id]);
+    const names = node.selected ? picked() : [node.id];
+    openMenu(e, `actions for ${names.join(", ")}`, blockMenuItems(names, editable, {
+      duplicate: () => pasteBlocks(copyBlocks(names)),
+      copy: () => copyBlocks(names),
+      paste: () => pasteBlocks(),
+      swap: () => {
+        selectBlocks([node.id]);
+        setPanels({ rightOpen: true });
+        setTab("inspect");
+      },
+      remove: () => deleteBlocks(names),
+    }));
+  };
+  const paneMenu = (e) =>
+    openMenu(e, "canvas actions", paneMenuItems(editable, {
+      paste: () => pasteBlocks(),
+      selectAll,
+      autoLayout,
+      fit: () => rf.fitView({ padding: 0.08 }),
+      keys: () => setShowKeys(true),
+    }));
+  const wireMenu = (e, edge) => {
+    setSelection({ kind: "wire", id: edge.id });
+    openMenu(e, `actions for the wire ${edge.id}`, [
+      { label: "Delete wire", keys: "Delete", run: () => deleteWires([edge.id]), disabled: !editable },
+    ]);
+  };
 
   if (!palette || !graph) {
     return (
@@ -894,6 +661,58 @@ function Studio() {
   const shown = runs.find((r) => r.id === shownRun);
   const running = runs.some((r) => r.state === "running" || r.state === "starting");
 
+  const inspector = (
+    <Inspector
+      summaryTable={<SummaryTable summary={validation?.summary} />}
+      selection={selection}
+      doc={doc}
+      graph={graph}
+      faces={faces}
+      problems={problems}
+      validation={validation}
+      colors={palette.kind_colors}
+      options={swapOptions}
+      swapMessage={swapMessage}
+      editable={editable}
+      onSwap={swap}
+      onParam={setParam}
+      onVariable={setVariable}
+      onRename={renameBlock}
+      onDelete={(n) => deleteBlocks([n])}
+      onDeleteWire={(t) => deleteWires([t])}
+    />
+  );
+  const runsPanel = (
+    <div>
+      <RunForm
+        graphPath={graph.path}
+        choices={validation?.run_choices}
+        truths={truths}
+        onRun={startRun}
+        running={running}
+        graphValid={validation?.valid}
+      />
+      <div className="panel-subtitle">Runs</div>
+      <RunList
+        runs={runs}
+        shown={shownRun}
+        compare={compare}
+        onShow={(id) => {
+          setShownRun(id);
+          setDock("result");
+          setDockOpen(true);
+        }}
+        onCompare={toggleCompare}
+        onCancel={cancelRun}
+        onRename={renameRun}
+      />
+      {compare.length === 1 && <div className="muted">Tick a second run to compare.</div>}
+      <div className="muted runs-dir">
+        Stores: {session?.runs_dir} {session?.runs_kept ? "" : "(deleted when the studio stops)"}
+      </div>
+    </div>
+  );
+
   return (
     <StudioContext.Provider value={studioContext}>
       <div
@@ -904,91 +723,18 @@ function Studio() {
           "--dock-height": `${panels.dock}px`,
         }}
       >
-        <header className="topbar">
-          <button
-            type="button"
-            className="panel-toggle"
-            aria-pressed={panels.leftOpen}
-            aria-label={panels.leftOpen ? "hide the block palette" : "show the block palette"}
-            title="show or hide the block palette"
-            onClick={() => setPanels({ leftOpen: !panels.leftOpen })}
-            data-testid="toggle-left"
-          >
-            ◧
-          </button>
-          <div className="brand">PASIM-graph studio</div>
-          <select
-            value={graphs.includes(graph.path) ? graph.path : ""}
-            onChange={(e) => {
-              if (validation?.changed && !window.confirm("Discard the unsaved changes?")) return;
-              openGraph(e.target.value);
-            }}
-            data-testid="graph-select"
-            aria-label="open a graph"
-          >
-            {!graphs.includes(graph.path) && <option value="">{graph.path} (new)</option>}
-            {graphs.map((g) => (
-              <option key={g} value={g}>
-                {g}
-              </option>
-            ))}
-          </select>
-          <button type="button" onClick={newGraph}>New</button>
-          <button
-            type="button"
-            onClick={() => undo(false)}
-            disabled={!editable || !history.current.undo.length}
-            title="undo the last edit (Ctrl+Z)"
-            data-testid="undo"
-          >
-            Undo
-          </button>
-          <button
-            type="button"
-            onClick={() => undo(true)}
-            disabled={!editable || !history.current.redo.length}
-            title="redo (Ctrl+Shift+Z)"
-          >
-            Redo
-          </button>
-          <button type="button" className="primary" onClick={() => save()} disabled={!editable} data-testid="save-button">
-            Save
-          </button>
-          <button type="button" onClick={saveAs} disabled={!editable}>Save as…</button>
-          <button type="button" onClick={autoLayout} data-testid="auto-layout">Auto layout</button>
-          <button type="button" onClick={exportSvg}>SVG</button>
-          <button type="button" onClick={() => setShowKeys(true)} aria-label="keyboard shortcuts" title="keyboard shortcuts (?)">
-            ?
-          </button>
-          <button
-            type="button"
-            className="panel-toggle"
-            aria-pressed={panels.rightOpen}
-            aria-label={panels.rightOpen ? "hide the inspector panel" : "show the inspector panel"}
-            title="show or hide the inspector, problems, changes and runs"
-            onClick={() => setPanels({ rightOpen: !panels.rightOpen })}
-            data-testid="toggle-right"
-          >
-            ◨
-          </button>
-          <span className={`status ${validation?.valid ? "ok" : "bad"}`} data-testid="status">
-            {validation?.valid ? "valid" : `${problems.length} problem${problems.length === 1 ? "" : "s"}`}
-          </span>
-          {validation?.changed && <span className="status unsaved" data-testid="unsaved">unsaved changes</span>}
-          {notice && (
-            <span className={`notice ${notice.kind}`} data-testid="notice">
-              {notice.text}
-              {notice.action && (
-                <button type="button" onClick={() => { setNotice(null); notice.action.run(); }}>
-                  {notice.action.label}
-                </button>
-              )}
-              <button type="button" className="link" onClick={() => setNotice(null)} aria-label="dismiss">
-                ×
-              </button>
-            </span>
-          )}
-        </header>
+        <Topbar
+          graphs={graphs}
+          graph={graph}
+          validation={validation}
+          problems={problems}
+          notice={notice}
+          editable={editable}
+          panels={panels}
+          canUndo={history.current.undo.length > 0}
+          canRedo={history.current.redo.length > 0}
+          on={{ openGraph, newGraph, undo, save, saveAs, autoLayout, exportSvg, setPanels, setNotice, showKeys: () => setShowKeys(true) }}
+        />
         <aside className="left" hidden={!panels.leftOpen} aria-label="block palette">
           <Palette palette={palette} onAdd={(t) => addBlock(t)} editable={editable} />
         </aside>
@@ -1069,103 +815,23 @@ function Studio() {
           />
         )}
         <aside className="right" hidden={!panels.rightOpen} aria-label="inspector, problems, changes and runs">
-          <nav className="tabs">
-            {[
-              ["inspect", "Inspector"],
-              ["problems", `Problems (${problems.length})`],
-              ["changes", validation?.changed ? "Changes •" : "Changes"],
-              ["run", running ? "Run •" : "Run"],
-            ].map(([k, label]) => (
-              <button
-                type="button"
-                key={k}
-                className={tab === k ? "active" : ""}
-                onClick={() => setTab(k)}
-                data-testid={`tab-${k}`}
-              >
-                {label}
-              </button>
-            ))}
-          </nav>
-          <div className="tab-body">
-            {tab === "inspect" && (
-              <Inspector
-                summaryTable={<SummaryTable summary={validation?.summary} />}
-                selection={selection}
-                doc={doc}
-                graph={graph}
-                faces={faces}
-                problems={problems}
-                validation={validation}
-                colors={palette.kind_colors}
-                options={swapOptions}
-                swapMessage={swapMessage}
-                editable={editable}
-                onSwap={swap}
-                onParam={setParam}
-                onVariable={setVariable}
-                onRename={renameBlock}
-                onDelete={(n) => deleteBlocks([n])}
-                onDeleteWire={(t) => deleteWires([t])}
-              />
-            )}
-            {tab === "problems" && (
-              <div className="problems" data-testid="problems">
-                {!problems.length && <div className="message ok">The engine finds no problem in this graph.</div>}
-                {problems.map((p) => (
-                  <button
-                    type="button"
-                    key={p.text}
-                    className="problem clickable"
-                    onClick={() => {
-                      if (p.block && doc.blocks[p.block]) {
-                        selectBlocks([p.block]);
-                        setTab("inspect");
-                      }
-                    }}
-                  >
-                    {p.text}
-                  </button>
-                ))}
-              </div>
-            )}
-            {tab === "changes" && (
-              <div data-testid="changes">
-                <div className="muted">What saving writes to {graph.path}:</div>
-                <pre className="diff">{validation?.diff || "nothing: the file on disk is the same"}</pre>
-              </div>
-            )}
-            {tab === "run" && (
-              <div>
-                <RunForm
-                  graphPath={graph.path}
-                  choices={validation?.run_choices}
-                  truths={truths}
-                  onRun={startRun}
-                  running={running}
-                  graphValid={validation?.valid}
-                />
-                <div className="panel-subtitle">Runs</div>
-                <RunList
-                  runs={runs}
-                  shown={shownRun}
-                  compare={compare}
-                  onShow={(id) => {
-                    setShownRun(id);
-                    setDock("result");
-                    setDockOpen(true);
-                  }}
-                  onCompare={toggleCompare}
-                  onCancel={cancelRun}
-                  onRename={renameRun}
-                />
-                {compare.length === 1 && <div className="muted">Tick a second run to compare.</div>}
-                <div className="muted runs-dir">
-                  Stores: {session?.runs_dir} {session?.runs_kept ? "" : "(deleted when the studio stops)"}
-                </div>
-              </div>
-            )}
-          </div>
+          <SidePanel
+            tab={tab}
+            setTab={setTab}
+            problems={problems}
+            validation={validation}
+            running={running}
+            inspector={inspector}
+            doc={doc}
+            graph={graph}
+            onProblem={(p) => {
+              if (p.block && doc.blocks[p.block]) {
+                selectBlocks([p.block]);
+                setTab("inspect");
+              }
+            }}
+            runs={runsPanel}
+          />
         </aside>
         {dockOpen && (
           <Splitter
@@ -1179,38 +845,17 @@ function Studio() {
             className="dock-edge"
           />
         )}
-        <section className="dock" data-testid="dock" aria-label="results">
-          <nav className="tabs">
-            <button type="button" className={dock === "result" ? "active" : ""} onClick={() => { setDock("result"); setDockOpen(true); }}>
-              Result{shown ? `: ${shown.label}` : ""}
-            </button>
-            <button
-              type="button"
-              className={dock === "compare" ? "active" : ""}
-              disabled={!comparison}
-              onClick={() => { setDock("compare"); setDockOpen(true); }}
-              data-testid="dock-compare"
-            >
-              Compare{comparison ? ` ${comparison.a.id} ↔ ${comparison.b.id}` : " (tick two runs)"}
-            </button>
-            <button
-              type="button"
-              className="link dock-toggle"
-              onClick={() => setDockOpen(!dockOpen)}
-              aria-expanded={dockOpen}
-              aria-label={dockOpen ? "hide the results dock" : "show the results dock"}
-              data-testid="dock-toggle"
-            >
-              {dockOpen ? "hide ▾" : "show ▴"}
-            </button>
-          </nav>
-          {dockOpen && (
-            <div className="dock-body">
-              {dock === "result" && <RunResult run={shown} />}
-              {dock === "compare" && <Comparison data={comparison} />}
-            </div>
-          )}
-        </section>
+        <Dock
+          dock={dock}
+          dockOpen={dockOpen}
+          shown={shown}
+          comparison={comparison}
+          onShow={(which) => {
+            setDock(which);
+            setDockOpen(true);
+          }}
+          onToggle={() => setDockOpen(!dockOpen)}
+        />
         {menu && <ContextMenu menu={menu} onClose={() => setMenu(null)} />}
         {showKeys && <ShortcutsDialog onClose={() => setShowKeys(false)} />}
       </div>

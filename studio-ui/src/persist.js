@@ -54,3 +54,16 @@ export function loadPanels() {
 export function savePanels(panels) {
   write(window.localStorage, "panels", panels);
 }
+
+// The panels as the user left them; on a first visit, what the window has room for.
+export function initialPanels() {
+  const saved = loadPanels();
+  const wide = window.innerWidth;
+  return {
+    left: saved.left || 220,
+    right: saved.right || 390,
+    dock: saved.dock || Math.round(window.innerHeight * 0.42),
+    leftOpen: saved.leftOpen ?? wide >= 1100,
+    rightOpen: saved.rightOpen ?? wide >= 760,
+  };
+}
