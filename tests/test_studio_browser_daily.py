@@ -382,3 +382,38 @@ def test_every_control_has_a_name(page):
     check("dock")
     assert len(views) == 8
     assert math.isfinite(zoom(page))
+
+
+def test_a_comparison_has_a_difference_view(page):
+    """Two runs (the pencil beam, then an ideal antenna without sidelobes) compared: the
+    pictures side by side, and |B - A| per pixel, which lights up where the PPIs differ
+    (both are drawn on fixed colour scales over the same map)."""
+    page.click("[data-testid=tab-run]")
+    page.fill("[data-testid=run-sector]", "280:282")
+    page.select_option("[data-testid=run-level]", "expected")
+    page.click("[data-testid=run-button]")
+    wait_run(page, "1")
+    fit_all(page)
+    page.click("[data-testid=block-antenna] .block-name")
+    page.select_option("[data-testid=swap-select]", "antenna.ideal")
+    page.click("[data-testid=swap-button]")
+    page.wait_for_selector("[data-testid=unsaved]")
+    page.click("[data-testid=tab-run]")
+    page.click("[data-testid=run-button]")
+    wait_run(page, "2")
+    page.check("[data-testid=compare-1]")
+    page.check("[data-testid=compare-2]")
+    page.wait_for_selector("[data-testid=compare-table]")
+    assert page.locator("[data-testid=compare-ppi-DBZH] img").count() == 2
+    page.click("[data-testid=view-diff]")
+    caption = page.locator("[data-testid=compare-diff-DBZH] figcaption")
+    page.wait_for_function(
+        "(el) => /differs|identical/.test(el.innerText)", arg=caption.element_handle()
+    )
+    text = caption.inner_text()
+    share = float(re.search(r"([\d.]+) % of the picture differs", text)[1])
+    assert 0 < share < 100, text
+    size = page.eval_on_selector(
+        "[data-testid=compare-diff-DBZH] canvas", "c => [c.width, c.height]"
+    )
+    assert min(size) > 100
