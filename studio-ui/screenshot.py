@@ -5,7 +5,8 @@ Run from the top of the repository, in the project's environment, with Debian's 
     python studio-ui/screenshot.py
 
 It serves a temporary copy of graphs/, drives the page as a user would (run a 10 deg sector,
-swap the antenna, run again, compare) and writes docs/studio.png and docs/studio-compare.png.
+swap the antenna, run again, compare) at 1280 x 800 and writes docs/studio.png,
+docs/studio-compare.png and docs/studio-difference.png.
 """
 
 from __future__ import annotations
@@ -39,13 +40,11 @@ def main() -> None:
         server.serve_in_thread()
         try:
             with sync_playwright() as p:
-                context = p.chromium.launch_persistent_context(
-                    str(Path(tmp) / "profile"),
-                    executable_path="/usr/bin/chromium",
-                    args=ARGS,
-                    headless=True,
-                    viewport={"width": 1800, "height": 1100},
+                # A laptop's window: the page's first view is made for it.
+                browser = p.chromium.launch(
+                    executable_path="/usr/bin/chromium", args=ARGS, headless=True
                 )
+                context = browser.new_context(viewport={"width": 1280, "height": 800})
                 page = context.new_page()
                 page.goto(f"http://127.0.0.1:{server.port}/?token=docs&graph=generic_radar.yaml")
                 page.wait_for_selector("[data-testid=block-hpa]")
@@ -58,6 +57,8 @@ def main() -> None:
                 page.wait_for_timeout(1500)
                 page.screenshot(path=str(ROOT / "docs" / "studio.png"))
 
+                page.click(".react-flow__controls-fitview")
+                page.wait_for_timeout(500)
                 page.click("[data-testid=block-antenna] .block-name")
                 page.wait_for_selector(
                     "[data-testid=swap-select] option >> nth=1", state="attached"
@@ -72,8 +73,14 @@ def main() -> None:
                 page.check("[data-testid=compare-2]")
                 page.wait_for_selector("[data-testid=compare-table]")
                 page.wait_for_timeout(1500)
+                page.click("[data-testid=toggle-left]")
+                page.wait_for_timeout(800)
                 page.screenshot(path=str(ROOT / "docs" / "studio-compare.png"))
+                page.click("[data-testid=view-diff]")
+                page.wait_for_timeout(1500)
+                page.screenshot(path=str(ROOT / "docs" / "studio-difference.png"))
                 context.close()
+                browser.close()
         finally:
             server.close()
 

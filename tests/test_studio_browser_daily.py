@@ -401,6 +401,8 @@ def test_a_comparison_has_a_difference_view(page):
     page.click("[data-testid=tab-run]")
     page.click("[data-testid=run-button]")
     wait_run(page, "2")
+    # The form kept the sector and level chosen for run 1 while the inspector was open.
+    assert "(280:282, expected)" in page.inner_text("[data-testid=run-2]")
     page.check("[data-testid=compare-1]")
     page.check("[data-testid=compare-2]")
     page.wait_for_selector("[data-testid=compare-table]")

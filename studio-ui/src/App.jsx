@@ -796,7 +796,7 @@ function Studio() {
             proOptions={{ hideAttribution: true }}
           >
             <Background gap={20} size={1} />
-            <MiniMap pannable zoomable nodeStrokeWidth={3} ariaLabel="overview of the whole graph" />
+            <MiniMap pannable zoomable nodeStrokeWidth={3} ariaLabel="overview of the whole graph" style={{ width: 160, height: 110 }} />
             <Controls showInteractive={false} />
           </ReactFlow>
           <Glance summary={validation?.summary} />

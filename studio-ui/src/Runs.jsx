@@ -6,20 +6,25 @@ import { imageUrl } from "./api.js";
 const fmt = (v, digits = 4) => (v === null || v === undefined || Number.isNaN(v) ? "–" : Number(v).toPrecision(digits));
 const signed = (v) => (v === null || v === undefined ? "–" : `${v > 0 ? "+" : ""}${Number(v).toPrecision(3)}`);
 
+// What the user chose in the form, per graph file: kept while the page lives, so that the
+// form (drawn only while its tab is open) comes back as it was left.
+const chosen = new Map();
+
 export function RunForm({ graphPath, choices, truths, onRun, running, graphValid }) {
-  const [truth, setTruth] = useState("");
-  const [sector, setSector] = useState(choices?.sector || "");
-  const [level, setLevel] = useState(choices?.current || "");
-  const [seed, setSeed] = useState("0");
-  const touched = useRef({});
+  const kept = chosen.get(graphPath) || {};
+  const [truth, setTruth] = useState(kept.truth ?? "");
+  const [sector, setSector] = useState(kept.sector ?? (choices?.sector || ""));
+  const [level, setLevel] = useState(kept.level ?? (choices?.current || ""));
+  const [seed, setSeed] = useState(kept.seed ?? "0");
   const levels = choices?.levels || [];
+  const remember = (key, value) => chosen.set(graphPath, { ...(chosen.get(graphPath) || {}), [key]: value });
   // The graph's own sector and level, until the user picks others (per graph file).
   useEffect(() => {
-    touched.current = {};
-  }, [graphPath]);
-  useEffect(() => {
-    if (!touched.current.sector) setSector(choices?.sector || "");
-    if (!touched.current.level) setLevel(choices?.current || "");
+    const mine = chosen.get(graphPath) || {};
+    setTruth(mine.truth ?? "");
+    setSeed(mine.seed ?? "0");
+    setSector(mine.sector ?? (choices?.sector || ""));
+    setLevel(mine.level ?? (choices?.current || ""));
   }, [graphPath, choices?.sector, choices?.current]);
   return (
     <form
@@ -32,7 +37,14 @@ export function RunForm({ graphPath, choices, truths, onRun, running, graphValid
     >
       <label>
         truth
-        <select value={truth} onChange={(e) => setTruth(e.target.value)} data-testid="run-truth">
+        <select
+          value={truth}
+          onChange={(e) => {
+            remember("truth", e.target.value);
+            setTruth(e.target.value);
+          }}
+          data-testid="run-truth"
+        >
           <option value="">as in the graph (empty path: the bundled KLBB scene)</option>
           {truths.map((t) => (
             <option key={t} value={t}>
@@ -46,7 +58,7 @@ export function RunForm({ graphPath, choices, truths, onRun, running, graphValid
         <input
           value={sector}
           onChange={(e) => {
-            touched.current.sector = true;
+            remember("sector", e.target.value);
             setSector(e.target.value);
           }}
           placeholder={choices?.sector ? `as in the graph: ${choices.sector}` : "AZ0:AZ1"}
@@ -58,7 +70,7 @@ export function RunForm({ graphPath, choices, truths, onRun, running, graphValid
         <select
           value={level}
           onChange={(e) => {
-            touched.current.level = true;
+            remember("level", e.target.value);
             setLevel(e.target.value);
           }}
           data-testid="run-level"
@@ -73,7 +85,14 @@ export function RunForm({ graphPath, choices, truths, onRun, running, graphValid
       </label>
       <label>
         seed
-        <input value={seed} onChange={(e) => setSeed(e.target.value)} data-testid="run-seed" />
+        <input
+          value={seed}
+          onChange={(e) => {
+            remember("seed", e.target.value);
+            setSeed(e.target.value);
+          }}
+          data-testid="run-seed"
+        />
       </label>
       <button type="submit" className="primary" disabled={running} data-testid="run-button">
         {running ? "Running…" : "Run"}
