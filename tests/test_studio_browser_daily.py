@@ -384,6 +384,7 @@ def test_every_control_has_a_name(page):
     assert math.isfinite(zoom(page))
 
 
+@pytest.mark.slow  # two runs, about a minute on 2 cores
 def test_a_comparison_has_a_difference_view(page):
     """Two runs (the pencil beam, then an ideal antenna without sidelobes) compared: the
     pictures side by side, and |B - A| per pixel, which lights up where the PPIs differ
