@@ -18,6 +18,9 @@ from .base import (
     two_way_solid_angle,
 )
 
+#: The mismatch tables of the last coupled design (``PlanarPatchArray._mismatch_tables``).
+_TABLES: dict[tuple, Any] = {}
+
 
 class PlanarPatchArray(ArrayAntenna):
     """A planar array of dual-polarised elements, tapered, steered electronically.
@@ -30,7 +33,10 @@ class PlanarPatchArray(ArrayAntenna):
     quantised phase shifters and attenuators, ``pasim_blocks.antennas.electronics``) act on those
     T/R channels, per port. Patterns are normalised to the ideal array's broadside peak, so scan
     loss, beam broadening, the H/V mismatch that biases ZDR off broadside, and the gain lost
-    to errors and failures all appear.
+    to errors and failures all appear. ``coupling`` puts the elements inside their array:
+    the mismatch of the lattice's mutual coupling for each scan direction, from a file of
+    S-parameters or Wheeler's sheet model (``pasim_blocks.antennas.coupling``), and
+    ``embedded_pattern: cell`` the cos(theta) pattern of a large array's embedded element.
     """
 
     frequency_hz = Param(2.8e9, units="Hz", min=1e8, max=1e11, doc="carrier frequency")
@@ -58,6 +64,24 @@ class PlanarPatchArray(ArrayAntenna):
     face_tilt_deg = Param(0.0, units="deg", min=-30.0, max=60.0, doc="upward tilt of the face")
     support_deg = PATTERN_SUPPORT
     grid_step_deg = Param(0.05, units="deg", min=0.001, max=1.0, doc="pattern grid step")
+    coupling = Param(
+        "none",
+        type="str",
+        choices=("none", "model", "file"),
+        doc="mutual coupling: none (isolated elements), model (Wheeler sheet) or coupling_file",
+    )
+    coupling_file = Param(
+        "", type="path", doc="lattice S-parameters (coupling 'file'; format in docs/arrays.md)"
+    )
+    embedded_pattern = Param(
+        "isolated",
+        type="str",
+        choices=("isolated", "cell"),
+        doc="pattern inside the array: the isolated element's, or the cell's cos(theta)",
+    )
+    coupling_radius = Param(
+        31, type="int", min=1, max=64, doc="offsets (elements) the coupling model keeps"
+    )
 
     @classmethod
     def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
@@ -75,6 +99,11 @@ class PlanarPatchArray(ArrayAntenna):
                         f"{sub} does not divide the {n} elements of n_{axis}",
                     )
                 )
+        coupling, path = get("coupling"), get("coupling_file")
+        if coupling == "file" and not path:
+            out.append(("parameter 'coupling_file'", "coupling 'file' needs a coupling file"))
+        if path and coupling != "file":
+            out.append(("parameter 'coupling_file'", f"is set but coupling is {coupling!r}"))
         if get("element") == "file" and get("face_tilt_deg") != 0:
             out.append(
                 ("parameter 'face_tilt_deg'", "a tabulated element needs an untilted face (0)")
@@ -104,9 +133,47 @@ class PlanarPatchArray(ArrayAntenna):
         eta = taper_efficiency(self.taper_x) * taper_efficiency(self.taper_y)
         # Broadside directivity of the aperture (design_taper: the amplitude the design asks).
         self.gain_db = float(10 * np.log10(4 * np.pi * area / wavelength**2 * eta))
+        self.lattice: Any = None
+        if p["coupling"] == "file":
+            from .coupling import read_coupling_file
+
+            self.lattice = read_coupling_file(p["coupling_file"])
         self.omega: dict[str, float] = {}
         if p["element"] != "file":
             self._broadside_solid_angles(None)
+
+    def make_element(self, resource: Any) -> Any:
+        """The element, inside its array when ``coupling`` is set (``coupling.py``)."""
+        from .coupling import CoupledElement
+
+        element = super().make_element(resource)
+        cell = self.p["embedded_pattern"] == "cell"
+        if self.p["coupling"] == "none":
+            return CoupledElement(element, None, None, 0.0, 0.0, cell) if cell else element
+        h, v, psi_per_u, psi_per_v = self._mismatch_tables()
+        return CoupledElement(element, h, v, psi_per_u, psi_per_v, cell)
+
+    def _mismatch_tables(self) -> Any:
+        """The coupling's mismatch tables, computed once per design (shared with the ideal
+        copy, whose taper and lattice are the same)."""
+        from .coupling import mismatch_tables, sheet_kernel
+
+        p = self.p
+        names = (
+            *("n_x", "n_y", "spacing_x_m", "spacing_y_m", "frequency_hz", "taper"),
+            *("taylor_sll_db", "taylor_nbar", "kaiser_beta", "coupling", "coupling_file"),
+        )
+        key = (*(p[n] for n in names), p["coupling"] == "model" and p["coupling_radius"])
+        if key not in _TABLES:
+            geometry = {"spacing_x_m": p["spacing_x_m"], "spacing_y_m": p["spacing_y_m"]}
+            lattice = self.lattice or sheet_kernel(
+                **geometry, frequency_hz=p["frequency_hz"], radius=p["coupling_radius"]
+            )
+            _TABLES.clear()  # one design at a time: the tables of an 80 x 80 array are 1 MB
+            _TABLES[key] = mismatch_tables(
+                lattice, self.taper_x, self.taper_y, frequency_hz=p["frequency_hz"], **geometry
+            )
+        return _TABLES[key]
 
     def _taper(self, n: int) -> np.ndarray:
         from .tapers import design_taper
