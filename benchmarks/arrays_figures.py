@@ -202,6 +202,53 @@ def plot_zdr_bias(out: Path) -> dict:
     return {k: [round(v, 3) for v in vals] for k, vals in curves.items()}
 
 
+def plot_zdr_coupling(out: Path) -> dict:
+    """ATD's ZDR bias and scan loss with steering: isolated patch against embedded elements."""
+    import matplotlib.pyplot as plt
+    from pasim_blocks.commands.pattern import build, measure
+
+    from pasim_graph.graph import load
+
+    graph = load(GRAPHS / "atd_radar.yaml")
+    steers = np.arange(0.0, 46.0, 5.0)
+    cases = (
+        ("isolated patch (paper, fig. 9e)", {}),
+        ("isolated patch x Wheeler mismatch", {"coupling": "model"}),
+        ("embedded cell cos(theta), matched", {"embedded_pattern": "cell"}),
+        ("embedded cell x Wheeler mismatch", {"embedded_pattern": "cell", "coupling": "model"}),
+    )
+    results: dict = {}
+    for label, params in cases:
+        block = build(graph, "antenna", **params)
+        rows = [measure(block, s, 0.0, span_deg=6.0, step_deg=0.01) for s in steers]
+        el10 = [measure(block, s, 10.0, span_deg=6.0, step_deg=0.01) for s in (0.0, 45.0)]
+        gain = np.array([r["peak_gain_dbi"] for r in rows])
+        v_peak = np.array([r["peak_gain_dbi"] - r["zdr_bias_db"] / 2 for r in rows])
+        results[label] = {
+            "zdr_bias_db": [round(r["zdr_bias_db"], 3) for r in rows],
+            "scan_loss_h_db": [round(float(g), 3) for g in gain - gain[0]],
+            "scan_loss_v_db": [round(float(g), 3) for g in v_peak - v_peak[0]],
+            "zdr_bias_el10_db": [round(r["zdr_bias_db"], 3) for r in el10],
+        }
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
+    for i, (label, r) in enumerate(results.items()):
+        axes[0].plot(steers, r["zdr_bias_db"], marker="o", ms=3, color=f"C{i}", label=label)
+        axes[1].plot(steers, r["scan_loss_h_db"], marker="o", ms=3, color=f"C{i}", label="H")
+        axes[1].plot(steers, r["scan_loss_v_db"], ls="--", color=f"C{i}", label="V")
+    axes[0].set_ylabel("ZDR bias: two-way H/V at the peak (dB)")
+    axes[1].set_ylabel("one-way peak gain over broadside (dB)")
+    for ax in axes:
+        ax.set_xlabel("beam azimuth from broadside (deg)")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    axes[1].legend(["H (solid)", "V (dashed)"], fontsize=7, loc="lower left")
+    fig.suptitle("ATD, 80 x 80 patches: isolated against embedded elements", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out / "arrays_zdr_coupling.png", dpi=110)
+    plt.close(fig)
+    return results
+
+
 def plot_calibration(runs: Path, out: Path) -> dict:
     import matplotlib.pyplot as plt
     import xarray as xr
@@ -343,7 +390,9 @@ def main() -> None:
     args = ap.parse_args()
     out = Path(args.out)
     results: dict = {}
-    todo = args.only or ["systems", "impaired", "quantisation", "zdr", "crosspol", "calibration"]
+    todo = args.only or [
+        *("systems", "impaired", "quantisation", "zdr", "coupling", "crosspol", "calibration")
+    ]
     if "systems" in todo:
         rows = system_table(out)
         plot_systems(rows, out)
@@ -354,6 +403,8 @@ def main() -> None:
         plot_quantisation_lobes(out)
     if "zdr" in todo:
         results["zdr"] = plot_zdr_bias(out)
+    if "coupling" in todo:
+        results["coupling"] = plot_zdr_coupling(out)
     if "crosspol" in todo:
         results["crosspol"] = plot_crosspol(out)
     if "calibration" in todo and args.runs:
