@@ -370,8 +370,14 @@ def test_bad_coupling_files(tmp_path) -> None:
 
 
 def test_parameters_are_checked() -> None:
-    """coupling 'file' without a file, or a file without coupling 'file', at validation."""
+    """coupling 'file' without a file, or a file without coupling 'file', and the model on a
+    lattice wider than half a wavelength (where grating modes it lacks would radiate), at
+    validation."""
     problems = PlanarPatchArray.check_config({"coupling": "file"}, set())
     assert any("coupling_file" in item for item, _ in problems)
     problems = PlanarPatchArray.check_config({"coupling_file": "x.csv"}, set())
     assert any("coupling_file" in item and "'none'" in msg for item, msg in problems)
+    wide = {"coupling": "model", "spacing_x_m": 0.06}  # over half of 10.7 cm
+    problems = PlanarPatchArray.check_config(wide, set())
+    assert [item for item, _ in problems] == ["parameter 'spacing_x_m'"]
+    assert PlanarPatchArray.check_config({"coupling": "model"}, set()) == []

@@ -104,6 +104,19 @@ class PlanarPatchArray(ArrayAntenna):
             out.append(("parameter 'coupling_file'", "coupling 'file' needs a coupling file"))
         if path and coupling != "file":
             out.append(("parameter 'coupling_file'", f"is set but coupling is {coupling!r}"))
+        if coupling == "model":
+            from ..signals import SPEED_OF_LIGHT
+
+            half_wave = 0.5 * SPEED_OF_LIGHT / get("frequency_hz")
+            for axis in ("x", "y"):
+                if get(f"spacing_{axis}_m") > half_wave * (1 + 1e-9):
+                    out.append(
+                        (
+                            f"parameter 'spacing_{axis}_m'",
+                            f"coupling 'model' (one Floquet mode) needs spacings of at most half"
+                            f" a wavelength ({half_wave:.4g} m): use a coupling file",
+                        )
+                    )
         if get("element") == "file" and get("face_tilt_deg") != 0:
             out.append(
                 ("parameter 'face_tilt_deg'", "a tabulated element needs an untilted face (0)")
