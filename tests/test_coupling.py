@@ -169,8 +169,8 @@ def test_sheet_kernel_against_wheeler(port) -> None:
     aperture sheet matched at broadside: normalised scan conductance g = 1 / cos(theta) in the
     port's E-plane (azimuth for H, elevation for V) and cos(theta) in its H-plane,
     Gamma = (1 - g) / (1 + g); 1 - |Gamma|^2 within 0.05 dB up to 45 deg with 15 offsets kept
-    (the truncated series converges slowly: its kernel falls as r^-1.5), within 0.01 dB with
-    40; and the closed form of the module is Wheeler's law."""
+    (the truncated series converges slowly: its kernel falls as r^-1.5 in the E-plane),
+    within 0.01 dB with 40; and the closed form of the module is Wheeler's law."""
     theta = np.radians(np.array([0.0, 15.0, 30.0, 45.0]))
     for plane in ("x", "y"):
         e_plane = (plane == "x") == (port == "hh")

@@ -42,6 +42,7 @@ reflection. Two sources:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -60,6 +61,9 @@ COLUMNS = ("dx_elements", "dy_elements", "port", "s_db", "s_deg")
 _MODEL_GRID = 512
 # Samples per period of the interpolation table of the mismatch factor.
 _TABLE_GRID = 256
+# The mismatch tables of the last coupled design (:func:`embed`): an array and its ideal copy
+# (the same taper and lattice) share them; one design at a time (80 x 80: a few MB).
+_TABLES: dict[tuple, Any] = {}
 
 
 @dataclass(frozen=True)
@@ -330,3 +334,57 @@ def _fit(kernel: NDArray, n_x: int, n_y: int) -> NDArray:
     radius = (kernel.shape[0] - 1) // 2
     keep = min(radius, max(n_x, n_y) - 1)
     return kernel[radius - keep : radius + keep + 1, radius - keep : radius + keep + 1]
+
+
+def check_coupling(get: Callable[[str], Any]) -> list[tuple[str, str]]:
+    """Problems with a planar array's coupling parameters (``get``: a parameter's value)."""
+    from ..signals import SPEED_OF_LIGHT
+
+    out = []
+    coupling, path = get("coupling"), get("coupling_file")
+    if coupling == "file" and not path:
+        out.append(("parameter 'coupling_file'", "coupling 'file' needs a coupling file"))
+    if path and coupling != "file":
+        out.append(("parameter 'coupling_file'", f"is set but coupling is {coupling!r}"))
+    if coupling == "model":
+        half_wave = 0.5 * SPEED_OF_LIGHT / get("frequency_hz")
+        for axis in ("x", "y"):
+            if get(f"spacing_{axis}_m") > half_wave * (1 + 1e-9):
+                out.append(
+                    (
+                        f"parameter 'spacing_{axis}_m'",
+                        f"coupling 'model' (one Floquet mode) needs spacings of at most half"
+                        f" a wavelength ({half_wave:.4g} m): use a coupling file",
+                    )
+                )
+    return out
+
+
+def embed(
+    element: Any,
+    p: dict[str, Any],
+    taper_x: NDArray,
+    taper_y: NDArray,
+    lattice: LatticeCoupling | None,
+) -> Any:
+    """A planar array's element inside its array, from the block's parameters ``p``
+    (``coupling``, ``embedded_pattern``, ...): the bare element when neither is set."""
+    cell = p["embedded_pattern"] == "cell"
+    if p["coupling"] == "none":
+        return CoupledElement(element, None, None, 0.0, 0.0, cell) if cell else element
+    names = (
+        *("n_x", "n_y", "spacing_x_m", "spacing_y_m", "frequency_hz", "taper"),
+        *("taylor_sll_db", "taylor_nbar", "kaiser_beta", "coupling", "coupling_file"),
+    )
+    key = (*(p[n] for n in names), p["coupling"] == "model" and p["coupling_radius"])
+    if key not in _TABLES:
+        geometry = {"spacing_x_m": p["spacing_x_m"], "spacing_y_m": p["spacing_y_m"]}
+        lattice = lattice or sheet_kernel(
+            **geometry, frequency_hz=p["frequency_hz"], radius=p["coupling_radius"]
+        )
+        _TABLES.clear()
+        _TABLES[key] = mismatch_tables(
+            lattice, taper_x, taper_y, frequency_hz=p["frequency_hz"], **geometry
+        )
+    h, v, psi_per_u, psi_per_v = _TABLES[key]
+    return CoupledElement(element, h, v, psi_per_u, psi_per_v, cell)

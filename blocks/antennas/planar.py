@@ -18,9 +18,6 @@ from .base import (
     two_way_solid_angle,
 )
 
-#: The mismatch tables of the last coupled design (``PlanarPatchArray._mismatch_tables``).
-_TABLES: dict[tuple, Any] = {}
-
 
 class PlanarPatchArray(ArrayAntenna):
     """A planar array of dual-polarised elements, tapered, steered electronically.
@@ -99,24 +96,9 @@ class PlanarPatchArray(ArrayAntenna):
                         f"{sub} does not divide the {n} elements of n_{axis}",
                     )
                 )
-        coupling, path = get("coupling"), get("coupling_file")
-        if coupling == "file" and not path:
-            out.append(("parameter 'coupling_file'", "coupling 'file' needs a coupling file"))
-        if path and coupling != "file":
-            out.append(("parameter 'coupling_file'", f"is set but coupling is {coupling!r}"))
-        if coupling == "model":
-            from ..signals import SPEED_OF_LIGHT
+        from .coupling import check_coupling
 
-            half_wave = 0.5 * SPEED_OF_LIGHT / get("frequency_hz")
-            for axis in ("x", "y"):
-                if get(f"spacing_{axis}_m") > half_wave * (1 + 1e-9):
-                    out.append(
-                        (
-                            f"parameter 'spacing_{axis}_m'",
-                            f"coupling 'model' (one Floquet mode) needs spacings of at most half"
-                            f" a wavelength ({half_wave:.4g} m): use a coupling file",
-                        )
-                    )
+        out += check_coupling(get)
         if get("element") == "file" and get("face_tilt_deg") != 0:
             out.append(
                 ("parameter 'face_tilt_deg'", "a tabulated element needs an untilted face (0)")
@@ -157,36 +139,10 @@ class PlanarPatchArray(ArrayAntenna):
 
     def make_element(self, resource: Any) -> Any:
         """The element, inside its array when ``coupling`` is set (``coupling.py``)."""
-        from .coupling import CoupledElement
+        from .coupling import embed
 
         element = super().make_element(resource)
-        cell = self.p["embedded_pattern"] == "cell"
-        if self.p["coupling"] == "none":
-            return CoupledElement(element, None, None, 0.0, 0.0, cell) if cell else element
-        h, v, psi_per_u, psi_per_v = self._mismatch_tables()
-        return CoupledElement(element, h, v, psi_per_u, psi_per_v, cell)
-
-    def _mismatch_tables(self) -> Any:
-        """The coupling's mismatch tables, computed once per design (shared with the ideal
-        copy, whose taper and lattice are the same)."""
-        from .coupling import mismatch_tables, sheet_kernel
-
-        p = self.p
-        names = (
-            *("n_x", "n_y", "spacing_x_m", "spacing_y_m", "frequency_hz", "taper"),
-            *("taylor_sll_db", "taylor_nbar", "kaiser_beta", "coupling", "coupling_file"),
-        )
-        key = (*(p[n] for n in names), p["coupling"] == "model" and p["coupling_radius"])
-        if key not in _TABLES:
-            geometry = {"spacing_x_m": p["spacing_x_m"], "spacing_y_m": p["spacing_y_m"]}
-            lattice = self.lattice or sheet_kernel(
-                **geometry, frequency_hz=p["frequency_hz"], radius=p["coupling_radius"]
-            )
-            _TABLES.clear()  # one design at a time: the tables of an 80 x 80 array are 1 MB
-            _TABLES[key] = mismatch_tables(
-                lattice, self.taper_x, self.taper_y, frequency_hz=p["frequency_hz"], **geometry
-            )
-        return _TABLES[key]
+        return embed(element, self.p, self.taper_x, self.taper_y, self.lattice)
 
     def _taper(self, n: int) -> np.ndarray:
         from .tapers import design_taper
