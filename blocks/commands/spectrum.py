@@ -42,7 +42,7 @@ from ..transmitters.emission import (
     rise_fall_times,
     rsec_criteria,
 )
-from .waveform import PULSE_KIND, ChainError, find_chain
+from .waveform import PULSE_KIND, ChainError, find_chain, metrics_text
 
 #: The analysis span exceeds the mask's reach to the spurious level by this factor.
 SPAN_MARGIN = 2.0
@@ -254,17 +254,6 @@ def plot(s: Spectrum, path: str) -> None:
     plt.close(fig)
 
 
-def _text(metrics: dict[str, Any]) -> str:
-    lines = []
-    for key, value in metrics.items():
-        if isinstance(value, float):
-            value = f"{value:.4g}" if math.isfinite(value) else str(value)
-        elif isinstance(value, list):
-            value = ", ".join(value) or "none"
-        lines.append(f"{key:28s} {value}")
-    return "\n".join(lines)
-
-
 class SpectrumCommand:
     """The ``pasim spectrum`` subcommand (registered as a ``pasim_graph.commands`` plugin)."""
 
@@ -320,7 +309,7 @@ class SpectrumCommand:
         if args.json:
             print(json.dumps({k: json_safe(v) for k, v in result.metrics.items()}, indent=2))
         else:
-            print(_text(result.metrics))
+            print(metrics_text(result.metrics))
         if args.plot:
             print(f"wrote {args.plot}", file=sys.stderr)
         return 0

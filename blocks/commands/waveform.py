@@ -311,7 +311,8 @@ def plot(analysis: Analysis, path: str) -> None:
     plt.close(fig)
 
 
-def _text(metrics: dict[str, Any]) -> str:
+def metrics_text(metrics: dict[str, Any]) -> str:
+    """A command's figures as aligned ``name value`` lines (``pasim waveform``, ``spectrum``)."""
     lines = []
     for key, value in metrics.items():
         if isinstance(value, float):
@@ -358,7 +359,7 @@ class WaveformCommand:
         if args.json:
             print(json.dumps({k: json_safe(v) for k, v in analysis.metrics.items()}, indent=2))
         else:
-            print(_text(analysis.metrics))
+            print(metrics_text(analysis.metrics))
         if args.plot:
             print(f"wrote {args.plot}", file=sys.stderr)
         return 0

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from pasim_graph import Block, Chunk, Input, Output, Param
+from pasim_graph import Block, Chunk, Input, Output
 
 from ..signals import (
     BEAMS,
@@ -19,7 +19,7 @@ from ..signals import (
     NOISE_POWER,
     POLARIMETRIC_FIELDS,
 )
-from .output import moments_dataset, thresholds
+from .output import Censoring, moments_dataset, thresholds
 
 
 def correlations(iq_h: np.ndarray, iq_v: np.ndarray | None, doppler: bool = True) -> dict:
@@ -181,7 +181,7 @@ def pulse_pair(
     )
 
 
-class PulsePairProcessor(Block):
+class PulsePairProcessor(Censoring, Block):
     """Pulse-pair moments, noise-corrected, calibrated to dBZ with the radar constant.
 
     Power is lag-0 minus the known noise power; velocity is from the phase of the lag-1
@@ -210,33 +210,6 @@ class PulsePairProcessor(Block):
         ECHO_CORRELATIONS, required=False, doc="expected echo correlations (expected level)"
     )
     moments = Output(MOMENTS, store="moments", doc="estimated moments", fields=MOMENT_FIELDS)
-
-    # Defaults are the thresholds the real KLBB volume was censored at (Level-II data moment
-    # headers): REF and the dual-pol moments at 2.0 dB, VEL and SW at 3.5 dB.
-    snr_threshold_reflectivity_db = Param(
-        2.0,
-        units="dB",
-        min=-100.0,
-        max=100.0,
-        optional=True,
-        doc="censor DBZH where the estimated SNR is below (null: never)",
-    )
-    snr_threshold_doppler_db = Param(
-        3.5,
-        units="dB",
-        min=-100.0,
-        max=100.0,
-        optional=True,
-        doc="censor VRADH and WRADH where the estimated SNR is below (null: never)",
-    )
-    snr_threshold_polarimetric_db = Param(
-        2.0,
-        units="dB",
-        min=-100.0,
-        max=100.0,
-        optional=True,
-        doc="censor ZDR, RHOHV and PHIDP where the estimated SNR is below (null: never)",
-    )
 
     def setup(self) -> None:
         self._threshold_db = thresholds(self.p)
