@@ -4,7 +4,8 @@ Everything a client can make the studio touch on disk goes through here:
 
 - graph paths named by a request (:meth:`Folder.resolve`): relative, no ``..``, a graph
   suffix, inside the folder once symlinks are followed;
-- folder listings (:meth:`Folder.graphs`, :meth:`Folder.truths`): regular files only, so a
+- folder listings (:meth:`Folder.graphs`, :meth:`Folder.truths`, :meth:`Folder.studies`):
+  regular files only, so a
   named pipe or a device in the folder never blocks a listing (opening a FIFO for reading
   waits for a writer);
 - file paths *inside* a graph (a ``path`` parameter: a truth file, a measured pattern, a
@@ -16,6 +17,7 @@ Everything a client can make the studio touch on disk goes through here:
 
 from __future__ import annotations
 
+import json
 import os
 import stat
 import tempfile
@@ -24,6 +26,11 @@ from pathlib import Path
 from typing import Any
 
 GRAPH_SUFFIXES = (".yaml", ".yml")
+#: What ``pasim study --out DIR`` writes into DIR: its manifest (first) and its report.
+STUDY_MANIFEST = "pasim-study.json"
+STUDY_REPORT = "report.html"
+#: A manifest holds the study file's text and a line per run: a few hundred kB at most.
+MAX_MANIFEST = 8 * 2**20
 
 
 class RequestError(Exception):
@@ -180,6 +187,51 @@ class Folder:
                 if len(out) >= limit:
                     return out
         return out
+
+    def studies(self, limit: int = 200) -> list[dict[str, Any]]:
+        """Study folders below the root (``pasim study --out``): each with its study file, the
+        runs finished so far and whether its report has been written."""
+        out: list[dict[str, Any]] = []
+        for dirpath, filenames in self._walk():
+            folder = Path(dirpath)
+            if STUDY_MANIFEST not in filenames or not folder.resolve().is_relative_to(self.root):
+                continue
+            raw = head(folder / STUDY_MANIFEST, MAX_MANIFEST)
+            try:
+                state = json.loads(raw or b"")
+            except ValueError:
+                state = None
+            if not isinstance(state, dict):
+                continue  # unreadable or not a study's manifest: not listed
+            runs = state.get("runs")
+            out.append(
+                {
+                    "path": folder.relative_to(self.root).as_posix() or ".",
+                    "study_file": str(state.get("study_file", "")),
+                    "runs_finished": len(runs) if isinstance(runs, dict) else 0,
+                    "report": STUDY_REPORT in filenames,
+                }
+            )
+            if len(out) >= limit:
+                break
+        return out
+
+    def study_report(self, rel: Any) -> Path:
+        """The report of a study folder a request names: ``REL/report.html`` inside the served
+        folder, beside the study's manifest."""
+        if not isinstance(rel, str):
+            raise RequestError(400, "expected 'path': a study folder relative to the served folder")
+        try:
+            report = self.resolve(
+                (rel.rstrip("/") + "/" if rel.strip(".") else "") + STUDY_REPORT,
+                suffixes=(STUDY_REPORT,),
+            )
+        except RequestError as exc:
+            message = exc.message.replace("no graph file", "no study report")
+            raise RequestError(exc.status, message) from None
+        if not is_regular(report.parent / STUDY_MANIFEST):
+            raise RequestError(404, f"{rel!r} is not a study folder ({STUDY_MANIFEST} missing)")
+        return report
 
     def truth_path(self, rel: Any) -> Path:
         """A truth file a run asks for: inside the folder, an existing file."""

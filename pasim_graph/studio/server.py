@@ -283,6 +283,8 @@ class Handler(BaseHTTPRequestHandler):
             get = _GET.get(path)
             if get is not None:
                 return self._json(200, get(self, query))
+            if path == "/studies/report":
+                return self._study_report(query)
             m = re.fullmatch(r"/api/runs/(\w+)/images/(\w+)\.png", path)
             if m:
                 png = self.server.runs.image(m[1], m[2]).read_bytes()
@@ -331,6 +333,22 @@ class Handler(BaseHTTPRequestHandler):
             ctype += "; charset=utf-8"
         self._send(200, full.read_bytes(), ctype)
 
+    def _study_report(self, query: dict[str, list[str]]) -> None:
+        """A study's report (``?path=STUDY_FOLDER``), to open in its own tab.
+
+        Served sandboxed: the page is a file from the folder, and its address carries the
+        token, so it gets an opaque origin, no scripts (the study's report has none) and
+        nothing fetched from elsewhere (its figures are embedded).
+        """
+        report = self.server.folder.study_report((query.get("path") or [""])[0])
+        policy = "sandbox; default-src 'none'; img-src data:; style-src 'unsafe-inline'"
+        self._send(
+            200,
+            report.read_bytes(),
+            "text/html; charset=utf-8",
+            {"Content-Security-Policy": policy},
+        )
+
     # -- the API ----------------------------------------------------------------------------
 
     def api_session(self, query: dict[str, list[str]]) -> dict[str, Any]:
@@ -357,6 +375,9 @@ class Handler(BaseHTTPRequestHandler):
 
     def api_truths(self, query: dict[str, list[str]]) -> dict[str, Any]:
         return {"truths": self.server.folder.truths()}
+
+    def api_studies(self, query: dict[str, list[str]]) -> dict[str, Any]:
+        return {"studies": self.server.folder.studies()}
 
     def api_runs(self, query: dict[str, list[str]]) -> dict[str, Any]:
         runs = self.server.runs.runs.values()
@@ -456,6 +477,7 @@ _GET = {
     "/api/graph": Handler.api_graph,
     "/api/palette": Handler.api_palette,
     "/api/truths": Handler.api_truths,
+    "/api/studies": Handler.api_studies,
     "/api/runs": Handler.api_runs,
     "/api/compare": Handler.api_compare,
 }

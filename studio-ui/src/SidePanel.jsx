@@ -1,10 +1,13 @@
 // The panel beside the canvas: the inspector, the engine's problems, the changes a save
-// writes, and the runs.
+// writes, the runs, and the folder's studies.
+import Studies from "./Studies.jsx";
+
 const TABS = [
   ["inspect", () => "Inspector"],
   ["problems", (p) => `Problems (${p.problems.length})`],
   ["changes", (p) => (p.validation?.changed ? "Changes •" : "Changes")],
   ["run", (p) => (p.running ? "Run •" : "Run")],
+  ["studies", () => "Studies"],
 ];
 
 export default function SidePanel(props) {
@@ -44,6 +47,7 @@ export default function SidePanel(props) {
           </div>
         )}
         {tab === "run" && runs}
+        {tab === "studies" && <Studies />}
       </div>
     </>
   );
