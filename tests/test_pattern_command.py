@@ -141,3 +141,30 @@ def test_negative_steering_angles_are_taken_as_written(capsys):
     assert out["steer_deg"] == [-20.0, 10.0]
     assert main(["pattern", str(GRAPHS / "atd_radar.yaml"), "--steer=-20,10", "--json"]) == 0
     assert json.loads(capsys.readouterr().out) == out
+
+
+def test_scan_mode_gives_each_beam_as_steering_it_by_hand(capsys) -> None:
+    """`pasim pattern --scan`: one row per beam of the scan, each the figures `--steer` gives
+    for that beam's offset from the array's broadside, worked out here by hand from the
+    antenna's face azimuth and the scan's beam azimuths (the mapping a user did before)."""
+    from .conftest import pasim_out
+
+    graph = str(GRAPHS / "atd_radar.yaml")
+    code, out, err = pasim_out(capsys, "pattern", graph, "--scan", "--sector", "240:243", "--json")
+    assert code == 0, err
+    beams = json.loads(out)["beams"]
+    assert [b["azimuth_deg"] for b in beams] == [240.5, 241.5, 242.5]
+    g = load(graph)
+    face, tilt = g.value("antenna", "face_azimuth_deg"), g.value("antenna", "face_tilt_deg")
+    up = g.value("scan", "elevation_deg") - tilt
+    for b in beams:
+        steer = f"{(b['azimuth_deg'] - face + 180) % 360 - 180:g},{up:g}"
+        code, one, err = pasim_out(capsys, "pattern", graph, "--steer", steer, "--json")
+        assert code == 0, err
+        single = json.loads(one)
+        assert single["beam_azimuth_deg"] == pytest.approx(b["azimuth_deg"], abs=0.05)
+        for key in ("beamwidth_az_deg", "peak_sidelobe_db", "peak_gain_dbi", "zdr_bias_db"):
+            assert b[key] == pytest.approx(single[key], abs=1e-9), key
+    # Steered away from broadside the beam widens and the H/V ratio grows (the ATD faces 290).
+    assert beams[0]["beamwidth_az_deg"] > beams[-1]["beamwidth_az_deg"]
+    assert beams[0]["zdr_bias_db"] < beams[-1]["zdr_bias_db"] < 0

@@ -169,6 +169,12 @@ class PatternCommand:
             default=90.0,
             help="half-width of the azimuth and elevation cuts, degrees (default 90)",
         )
+        parser.add_argument(
+            "--scan",
+            action="store_true",
+            help="every beam of the graph's scan, steered as a run steers it: one row per beam "
+            "(azimuth and elevation in the radar's frame, not from broadside)",
+        )
         parser.add_argument("--json", action="store_true", help="print the figures as JSON")
         parser.add_argument("--plot", metavar="FILE.png", help="plot the cuts to a PNG file")
         add_graph_arguments(parser)
@@ -192,6 +198,10 @@ class PatternCommand:
         if len(names) > 1:
             raise UserError(f"{args.graph} has several antennas ({', '.join(names)}): use --block")
         name = names[0]
+        if args.scan:
+            if args.plot or args.steer != (0.0, 0.0):
+                raise UserError("--scan measures every beam of the scan: drop --steer and --plot")
+            return scan_table(graph, name, args)
         try:
             block = build(graph, name)
             resource = block.load()
@@ -332,3 +342,57 @@ def plot(path: str, built: dict[str, Any], ideal: dict[str, Any] | None, title: 
 
 
 COMMAND = PatternCommand()
+
+
+#: Figures of a per-scan table: (JSON key, column title, format).
+SCAN_COLUMNS = (
+    ("beamwidth_az_deg", "bw az", "{:.2f}"),
+    ("beamwidth_el_deg", "bw el", "{:.2f}"),
+    ("first_sidelobe_db", "1st SL", "{:.1f}"),
+    ("peak_sidelobe_db", "peak SL", "{:.1f}"),
+    ("peak_gain_dbi", "gain dBi", "{:.2f}"),
+    ("zdr_bias_db", "H/V dB", "{:.3f}"),
+)
+
+
+def scan_beams(graph: Any) -> list[tuple[float, float]]:
+    """(azimuth, elevation) of every beam of the graph's scan block, as a run forms them."""
+    from pasim_graph.cli import UserError
+
+    scans = graph.by_role("scan")
+    if len(scans) != 1:
+        raise UserError(f"--scan needs one scan block; the graph has {len(scans) or 'none'}")
+    scan = graph.classes[scans[0]](name=scans[0], **graph.params[scans[0]])
+    elevation = float(graph.value(scans[0], "elevation_deg"))
+    return [(float(a), elevation) for a in scan.nominal_azimuths()]
+
+
+def scan_table(graph: Any, name: str, args: argparse.Namespace) -> int:
+    """``pasim pattern --scan``: the figures of every beam of the scan."""
+    from pasim_graph.cli import UserError
+
+    try:
+        block = build(graph, name)
+        resource = block.load()
+        if hasattr(block, "prepare"):
+            block.prepare(resource)
+        az0, el0 = block.broadside()
+        rows = []
+        for az, el in scan_beams(graph):
+            steer = ((az - az0 + 180.0) % 360.0 - 180.0, el - el0)
+            figures = measure(block, *steer, seed=args.seed, resource=resource, span_deg=args.span)
+            row = {"azimuth_deg": az, "elevation_deg": el, "steer_deg": list(steer)}
+            row.update({k: json_safe(figures[k]) for k, _, _ in SCAN_COLUMNS})
+            rows.append(row)
+    except ValueError as exc:
+        raise UserError(f"block {name!r} ({graph.classes[name].type_name}): {exc}") from None
+    if args.json:
+        print(json.dumps({"antenna": name, "seed": args.seed, "beams": rows}, indent=2))
+        return 0
+    head = ["az deg", "el deg", *(title for _, title, _ in SCAN_COLUMNS)]
+    print("  ".join(f"{h:>9}" for h in head))
+    for r in rows:
+        cells = [f"{r['azimuth_deg']:.2f}", f"{r['elevation_deg']:.2f}"]
+        cells += ["n/a" if r[k] is None else fmt.format(r[k]) for k, _, fmt in SCAN_COLUMNS]
+        print("  ".join(f"{c:>9}" for c in cells))
+    return 0
