@@ -587,6 +587,14 @@ def _add_studio_commands(sub: Any) -> None:
     gr.set_defaults(func=cmd_graph)
 
 
+def _quiet_abandoned_io() -> None:
+    """After a stop by signal, keep asyncio from reporting at exit the reads zarr had in
+    flight when the signal came (their tasks are abandoned on purpose: the command ends)."""
+    import logging
+
+    logging.getLogger("asyncio").disabled = True
+
+
 def _show_warning(
     message: Warning | str, category: type[Warning], *args: Any, **kwargs: Any
 ) -> None:
@@ -631,9 +639,11 @@ def main(argv: list[str] | None = None) -> int:
                 file=sys.stderr,
             )
         except StopMessage as exc:
+            _quiet_abandoned_io()
             print(str(exc), file=sys.stderr)
             return exc.exit_code
         except KeyboardInterrupt:
+            _quiet_abandoned_io()
             print("interrupted", file=sys.stderr)
             return 130
         except FileNotFoundError as exc:
