@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import contextlib
 import errno
-import hashlib
 import json
 import os
 import shutil
@@ -48,6 +47,7 @@ from .resources import (
     traced,
     tree_bytes,
 )
+from .resume_key import ResumeError, input_digests, resume_mismatch, run_key
 from .store import (
     COMPLETE,
     DONE,
@@ -68,10 +68,6 @@ from .store import (
 )
 
 
-class ResumeError(RuntimeError):
-    """The store cannot be resumed by this run (another graph, seed or chunking)."""
-
-
 @dataclass
 class RunReport:
     chunks_total: int
@@ -79,79 +75,6 @@ class RunReport:
     beams: int
     seconds_setup: float = 0.0  # reading inputs, once-per-run blocks, the store's layout
     seconds_chunks: float = 0.0  # running and writing the chunks
-
-
-def input_digests(graph: Graph) -> dict[str, str]:
-    """The content of every file a graph reads (``path`` parameters), as SHA-256 digests.
-
-    A truth file replaced at the same path is another experiment: its digest differs.
-    """
-    import hashlib
-
-    out = {}
-    for block, cls in sorted(graph.classes.items()):
-        for name, param in cls.params.items():
-            value = graph.value(block, name)
-            if param.type != "path" or not value:
-                continue
-            digest = hashlib.sha256()
-            try:
-                with open(value, "rb") as f:
-                    while piece := f.read(1 << 20):
-                        digest.update(piece)
-            except OSError:
-                continue  # validation names a missing file; the block's load says the rest
-            out[f"{block}.{name}"] = digest.hexdigest()
-    return out
-
-
-def run_key(graph: Graph, options: RunOptions, inputs: dict[str, str] | None = None) -> str:
-    """What must match for a store to be resumed: the graph as run, the content of the files
-    it reads, the program's version, seed, chunking, products."""
-    from . import __version__
-
-    text = json.dumps(
-        {
-            "graph": graph.text(),
-            "inputs": input_digests(graph) if inputs is None else inputs,
-            "version": __version__,
-            "seed": options.seed,
-            "chunk_beams": options.chunk_beams,
-            "products": sorted(options.wanted),
-            "fields": sorted(options.fields) if options.fields is not None else None,
-        },
-        sort_keys=True,
-    )
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-def _resume_mismatch(path: Path, stored: dict[str, Any], inputs: dict[str, str]) -> str:
-    """Why a store's run key differs from this run's, as precisely as the store says."""
-    from . import __version__
-
-    theirs = stored.get("pasim_graph_version")
-    if theirs is not None and theirs != __version__:
-        return (
-            f"{path} was written by pasim-graph {theirs} and this is pasim-graph "
-            f"{__version__}: resuming would mix chunks computed by different code; "
-            "use --overwrite to run it again"
-        )
-    try:
-        before = json.loads(stored.get("pasim_inputs", "null"))
-    except ValueError:
-        before = None
-    if isinstance(before, dict):
-        changed = sorted(k for k in set(before) | set(inputs) if before.get(k) != inputs.get(k))
-        if changed:
-            return (
-                f"{path} was written from other input files: the content of "
-                f"{', '.join(changed)} changed since (a file replaced at the same path); "
-                "resuming would mix two experiments; use --overwrite to run it again"
-            )
-    return (
-        f"{path} was written by another run (graph, seed, chunk "
-        "size or products differ); use --overwrite to replace it"
-    )
 
 
 #: ``scheduler`` values that run in this process: dask's threads (the default) or its
@@ -326,7 +249,7 @@ class DaskExecutor:
             # A new store, or one killed while its template was written: start afresh.
             clear_store(path)
         elif state[0].get("pasim_run_key") != key:
-            raise ResumeError(_resume_mismatch(path, state[0], inputs))
+            raise ResumeError(resume_mismatch(path, state[0], inputs))
         else:
             done = state[1].astype(bool)
             # In a finished store every chunk counts (a damaged done flag reads as not done);

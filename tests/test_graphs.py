@@ -56,7 +56,7 @@ def test_read_reports_unreadable(tmp_path):
 
 def test_block_reference_is_written_from_the_declarations():
     """docs/blocks.md is what `pasim blocks --markdown` writes for the library's blocks."""
-    from pasim_graph.cli import blocks_markdown
+    from pasim_graph.block_reference import blocks_markdown
     from pasim_graph.registry import all_blocks
 
     library = {n: c for n, c in all_blocks().items() if c.__module__.startswith("pasim_blocks")}

@@ -1,0 +1,87 @@
+"""What must match for a store to be resumed: the run key (the graph as run, the content of the
+files it reads, the program's version, seed, chunking, products) and, when it differs, why."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+from typing import Any
+
+from .executor import RunOptions
+from .graph import Graph
+
+
+class ResumeError(RuntimeError):
+    """The store cannot be resumed by this run (another graph, seed or chunking)."""
+
+
+def input_digests(graph: Graph) -> dict[str, str]:
+    """The content of every file a graph reads (``path`` parameters), as SHA-256 digests.
+
+    A truth file replaced at the same path is another experiment: its digest differs.
+    """
+    out = {}
+    for block, cls in sorted(graph.classes.items()):
+        for name, param in cls.params.items():
+            value = graph.value(block, name)
+            if param.type != "path" or not value:
+                continue
+            digest = hashlib.sha256()
+            try:
+                with open(value, "rb") as f:
+                    while piece := f.read(1 << 20):
+                        digest.update(piece)
+            except OSError:
+                continue  # validation names a missing file; the block's load says the rest
+            out[f"{block}.{name}"] = digest.hexdigest()
+    return out
+
+
+def run_key(graph: Graph, options: RunOptions, inputs: dict[str, str] | None = None) -> str:
+    """What must match for a store to be resumed: the graph as run, the content of the files
+    it reads, the program's version, seed, chunking, products."""
+    from . import __version__
+
+    text = json.dumps(
+        {
+            "graph": graph.text(),
+            "inputs": input_digests(graph) if inputs is None else inputs,
+            "version": __version__,
+            "seed": options.seed,
+            "chunk_beams": options.chunk_beams,
+            "products": sorted(options.wanted),
+            "fields": sorted(options.fields) if options.fields is not None else None,
+        },
+        sort_keys=True,
+    )
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def resume_mismatch(path: Path, stored: dict[str, Any], inputs: dict[str, str]) -> str:
+    """Why a store's run key differs from this run's, as precisely as the store says."""
+    from . import __version__
+
+    theirs = stored.get("pasim_graph_version")
+    if theirs is not None and theirs != __version__:
+        return (
+            f"{path} was written by pasim-graph {theirs} and this is pasim-graph "
+            f"{__version__}: resuming would mix chunks computed by different code; "
+            "use --overwrite to run it again"
+        )
+    try:
+        before = json.loads(stored.get("pasim_inputs", "null"))
+    except ValueError:
+        before = None
+    if isinstance(before, dict):
+        changed = sorted(k for k in set(before) | set(inputs) if before.get(k) != inputs.get(k))
+        if changed:
+            return (
+                f"{path} was written from other input files: the content of "
+                f"{', '.join(changed)} changed since (a file replaced at the same path); "
+                "resuming would mix two experiments; use --overwrite to run it again"
+            )
+    return (
+        f"{path} was written by another run (graph, seed, chunk "
+        "size or products differ); use --overwrite to replace it"
+    )
