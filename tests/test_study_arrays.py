@@ -184,3 +184,56 @@ def test_the_new_figures_in_chromium(study):
     assert seen["rows"]["calibration"] == 2  # planar under per-beam and boresight
     assert any(a.startswith("ZDR bias of planar") for a in seen["alts"])
     assert any(a.startswith("peak sidelobe and error budget") for a in seen["alts"])
+    assert seen["rows"]["hardware"] >= 10  # pattern, waveform and spectrum figures
+    assert sum(a.startswith("Antenna pattern cut, range response") for a in seen["alts"]) == 2
+
+
+def test_the_csv_holds_the_calibration_numbers(study):
+    import csv
+
+    cal = calibration(study)
+    with open(study / "scores.csv") as f:
+        rows = [r for r in csv.DictReader(f) if (r["system"], r["field"]) == ("planar", "ZDR")]
+    got = {(r["against"], r["quantity"]): r["value"] for r in rows}
+    assert float(got[("hv_ratio", "std_db")]) == pytest.approx(cal["hv_ratio_std_db"])
+    assert set(cal["against_ratio"]) == {"boresight", "per_beam"}
+    for kind, fit in cal["against_ratio"].items():
+        for q in ("correlation", "slope", "azimuth_std_db", "mean_db", "beams"):
+            assert float(got[(f"calibration_{kind}", q)]) == pytest.approx(fit[q])
+
+
+def test_the_hardware_figures_are_the_commands_own(study, capsys):
+    """Each system's pattern, waveform and spectrum figures in the study are what
+    ``pasim pattern``, ``pasim waveform`` and ``pasim spectrum`` print for its graph, run
+    independently here (the beam steered from the face to the sector's centre, 285 deg)."""
+    hw = json.loads((study / "pasim-study.json").read_text())["hardware"]
+    assert set(hw) == {"planar", "planar_bits"}
+    planar = hw["planar"]
+    graph = str(FIX / "small_planar.yaml")
+    for command, part in (
+        (["pattern", graph, "--steer", f"{285.0 - FACE_DEG},0.5", "--span", "60"], "pattern"),
+        (["waveform", graph], "waveform"),
+        (["spectrum", graph], "spectrum"),
+    ):
+        assert main([*command, "--json"]) == 0
+        printed = json.loads(capsys.readouterr().out)
+        for key, value in planar[part]["figures"].items():
+            if isinstance(value, float) and math.isfinite(value):
+                assert printed[key] == pytest.approx(value, rel=1e-9, abs=1e-12), (part, key)
+            elif not isinstance(value, float):
+                assert printed.get(key) == value, (part, key)
+    # The swept system is measured at its first point, and says so.
+    assert hw["planar_bits"]["point"] == "antenna.phase_bits=2"
+    rows = {r[0]: r[1:] for r in _hardware_rows(study)}
+    assert (
+        rows["peak sidelobe (dB)"][0] == f"{planar['pattern']['figures']['peak_sidelobe_db']:.1f}"
+    )
+    assert rows["RSEC emission mask"][0].startswith(
+        "passes" if planar["spectrum"]["figures"]["passes"] else "fails"
+    )
+
+
+def _hardware_rows(study: Path) -> list[list[str]]:
+    from .test_study_report import page
+
+    return page(study).tables["hardware"][1:]

@@ -190,7 +190,7 @@ def open_in_chromium(report: Path) -> dict:
             alts = tab.evaluate("[...document.images].map(i => i.alt)")
             rows = {
                 t: tab.locator(f"table.{t} tbody tr").count()
-                for t in ("summary", "budget", "calibration")
+                for t in ("summary", "budget", "calibration", "hardware")
             }
         finally:
             browser.close()

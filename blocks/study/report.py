@@ -29,6 +29,7 @@ from .design_figures import (
     sweep_verdicts,
 )
 from .figures import Figure, canvas, uri
+from .hardware_figures import hardware_figure, hardware_table
 from .runner import MANIFEST, StudyError, write_atomic
 from .scores import FIELDS
 
@@ -438,6 +439,8 @@ def build(out: Path) -> dict[str, Any]:
             for s in systems
             if (cal := (scores[s].get(case, {}).get("-", {}).get("ZDR") or {}).get("calibration"))
         ]
+    hardware = manifest.get("hardware", {})
+    hardware_systems = [s for s in systems if s in hardware]
     runs = [
         {"key": k, "kind": v.get("kind", ""), "seconds": v.get("seconds")}
         for k, v in manifest.get("runs", {}).items()
@@ -459,6 +462,9 @@ def build(out: Path) -> dict[str, Any]:
         "runs": runs,
         "total_seconds": sum(r["seconds"] or 0.0 for r in runs),
         "beamwidths": meta.get("beamwidths_deg", {}),
+        "hardware_systems": hardware_systems,
+        "hardware_rows": hardware_table(hardware, hardware_systems),
+        "hardware_figures": [hardware_figure(s, hardware[s]) for s in hardware_systems],
         "written": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
     }
 

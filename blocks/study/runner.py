@@ -98,14 +98,14 @@ def measure_beamwidth(run: Run, estimate: Run, sector: tuple[float, float], el: 
     """The one-way 3-dB beamwidth (geometric mean of azimuth and elevation) of the system's
     antenna, its beam steered to the sector's middle."""
     from ..commands.pattern import build, measure
+    from .hardware import sector_middle
 
     graph = estimate.graph()
     block = build(graph, run.source_antenna)
     resource = block.load()
     if hasattr(block, "prepare"):
         block.prepare(resource)
-    span = (sector[1] - sector[0]) % 360.0 or 360.0
-    middle = (sector[0] + span / 2) % 360.0
+    middle = sector_middle(sector)
     az0, el0 = block.broadside()
     steer = ((middle - az0 + 180.0) % 360.0 - 180.0, el - el0)
     figures = measure(block, *steer, seed=run.seed, resource=resource, span_deg=20.0)
@@ -137,6 +137,33 @@ def ensure_patterns(
         )
         save(out, state)
         log(f"measured the antenna of {bkey}: {time.perf_counter() - t0:.1f} s")
+    ensure_hardware(study, runs, out, state, log)
+
+
+def ensure_hardware(
+    study: Study, runs: list[Run], out: Path, state: dict[str, Any], log: Callable[[str], None]
+) -> None:
+    """Measure each system's pattern, waveform and spectrum (:mod:`.hardware`) once, from its
+    first finished estimate (the first case, unswept where it has such a point): kept in the
+    manifest under ``hardware``."""
+    from .hardware import sector_middle, system_hardware
+
+    hardware = state.setdefault("hardware", {})
+    cases = {c.name: c for c in study.cases}
+    for run in sorted(runs, key=lambda r: r.point_name != "-"):
+        if run.kind != "estimate" or run.seed != study.seeds[0] or run.system in hardware:
+            continue
+        if not finished(out / "runs" / run.key):
+            continue
+        case = cases[run.case]
+        t0 = time.perf_counter()
+        hardware[run.system] = {
+            "case": run.case,
+            "point": run.point_name,
+            **system_hardware(run.graph(), sector_middle(case.sector), case.elevation, run.seed),
+        }
+        save(out, state)
+        log(f"measured the hardware of {run.system}: {time.perf_counter() - t0:.1f} s")
 
 
 def execute(

@@ -467,10 +467,31 @@ def rankings(study: Study, result: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _stat_rows(base: dict[str, Any], against: str, st: dict[str, Any]) -> list[dict[str, Any]]:
+    """A statistic's quantities as tidy rows; an interval ``[lo, hi]`` as two rows."""
+    rows = []
+    for q in ("std", "std_ci", "robust_std", "bias", "bias_ci", "count", "pass"):
+        v = st[q]
+        pairs = ((f"{q}_lo", v[0]), (f"{q}_hi", v[1])) if isinstance(v, list) else ((q, v),)
+        rows += [{**base, "against": against, "quantity": k, "value": x} for k, x in pairs]
+    return rows
+
+
+def _calibration_rows(base: dict[str, Any], cal: dict[str, Any]) -> list[dict[str, Any]]:
+    """The ZDR bias along azimuth against the H/V ratio, per calibration, as tidy rows
+    (``against`` is ``calibration_<kind>``; the ratio's own spread is ``hv_ratio``)."""
+    rows = [{**base, "against": "hv_ratio", "quantity": "std_db", "value": cal["hv_ratio_std_db"]}]
+    for kind, fit in cal.get("against_ratio", {}).items():
+        rows += [
+            {**base, "against": f"calibration_{kind}", "quantity": q, "value": v}
+            for q, v in fit.items()
+        ]
+    return rows
+
+
 def csv_rows(result: dict[str, Any]) -> list[dict[str, Any]]:
     """One tidy row per system, case, point, field, gate set, reference and quantity."""
     rows = []
-    quantities = ("std", "std_ci", "robust_std", "bias", "bias_ci", "count", "pass")
     for system, cases in result.items():
         if system.startswith("_"):
             continue
@@ -479,57 +500,18 @@ def csv_rows(result: dict[str, Any]) -> list[dict[str, Any]]:
                 for name, s in fields.items():
                     base = {"system": system, "case": case, "point": point, "field": name}
                     for gates, stats in (("own", s), ("common", s.get("common"))):
-                        if stats is None:
-                            continue
-                        for against, st in (
-                            ("raw", stats),
-                            ("reference", stats.get("reference")),
-                            ("own_expected", stats.get("own_expected")),
-                        ):
-                            if st is None:
-                                continue
-                            for q in quantities:
-                                v = st[q]
-                                if isinstance(v, list):
-                                    rows.append(
-                                        {
-                                            **base,
-                                            "gates": gates,
-                                            "against": against,
-                                            "quantity": f"{q}_lo",
-                                            "value": v[0],
-                                        }
-                                    )
-                                    rows.append(
-                                        {
-                                            **base,
-                                            "gates": gates,
-                                            "against": against,
-                                            "quantity": f"{q}_hi",
-                                            "value": v[1],
-                                        }
-                                    )
-                                else:
-                                    rows.append(
-                                        {
-                                            **base,
-                                            "gates": gates,
-                                            "against": against,
-                                            "quantity": q,
-                                            "value": v,
-                                        }
-                                    )
-                    for q, v in (s.get("budget") or {}).items():
-                        if isinstance(v, (int, float)):
-                            rows.append(
-                                {
-                                    **base,
-                                    "gates": "own",
-                                    "against": "budget",
-                                    "quantity": q,
-                                    "value": v,
-                                }
-                            )
+                        for against in ("raw", "reference", "own_expected"):
+                            st = stats if against == "raw" else (stats or {}).get(against)
+                            if st is not None:
+                                rows += _stat_rows({**base, "gates": gates}, against, st)
+                    own = {**base, "gates": "own"}
+                    rows += [
+                        {**own, "against": "budget", "quantity": q, "value": v}
+                        for q, v in (s.get("budget") or {}).items()
+                        if isinstance(v, (int, float))
+                    ]
+                    if s.get("calibration"):
+                        rows += _calibration_rows(own, s["calibration"])
     return rows
 
 
