@@ -72,3 +72,27 @@ def same_sweep(a, b) -> None:
     assert sorted(x.data_vars) == sorted(y.data_vars)
     for name in y.data_vars:
         np.testing.assert_array_equal(x[name].values, y[name].values, err_msg=name)
+
+
+@pytest.fixture
+def folder(request, tmp_path):
+    """A copy of graphs/ for a studio to serve, with the broken fixtures beside them where
+    the test module sets ``SERVE_BROKEN``."""
+    import shutil
+
+    root = tmp_path / "graphs"
+    shutil.copytree(GRAPHS, root)
+    if getattr(request.module, "SERVE_BROKEN", False):
+        shutil.copytree(FIXTURES / "broken", root / "broken")
+    return root
+
+
+@pytest.fixture
+def studio(request, folder, tmp_path):
+    """A studio serving ``folder`` on a free port, with the test module's ``TOKEN``."""
+    from pasim_graph.studio.server import StudioServer
+
+    server = StudioServer(folder, 0, token=request.module.TOKEN, runs_dir=tmp_path / "runs")
+    server.serve_in_thread()
+    yield server
+    server.close()

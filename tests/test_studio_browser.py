@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import difflib
 import json
-import shutil
 from pathlib import Path
 
 import pytest
@@ -18,9 +17,6 @@ from pasim_graph import registry
 from pasim_graph.graph import GraphError, validate
 from pasim_graph.graphfile import dumps, read
 from pasim_graph.store import open_volume, summarize
-from pasim_graph.studio.server import StudioServer
-
-from .conftest import GRAPHS
 
 CHROMIUM = Path("/usr/bin/chromium")
 if not CHROMIUM.exists():
@@ -62,21 +58,6 @@ def browser(tmp_path_factory):
         context.set_default_timeout(20_000)
         yield context
         context.close()
-
-
-@pytest.fixture
-def folder(tmp_path):
-    root = tmp_path / "graphs"
-    shutil.copytree(GRAPHS, root)
-    return root
-
-
-@pytest.fixture
-def studio(folder, tmp_path):
-    server = StudioServer(folder, 0, token=TOKEN, runs_dir=tmp_path / "runs")
-    server.serve_in_thread()
-    yield server
-    server.close()
 
 
 @pytest.fixture

@@ -12,15 +12,12 @@ from __future__ import annotations
 
 import math
 import re
-import shutil
 
 import pytest
 
 from pasim_graph.graphfile import read
-from pasim_graph.studio.server import StudioServer
 from pasim_graph.studio.summary import system_summary
 
-from .conftest import GRAPHS
 from .test_studio_browser import ARGS, CHROMIUM, sync_api
 
 TOKEN = "daily-browser-token"
@@ -35,21 +32,6 @@ def chromium():
         browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS, headless=True)
         yield browser
         browser.close()
-
-
-@pytest.fixture
-def folder(tmp_path):
-    root = tmp_path / "graphs"
-    shutil.copytree(GRAPHS, root)
-    return root
-
-
-@pytest.fixture
-def studio(folder, tmp_path):
-    server = StudioServer(folder, 0, token=TOKEN, runs_dir=tmp_path / "runs")
-    server.serve_in_thread()
-    yield server
-    server.close()
 
 
 @pytest.fixture

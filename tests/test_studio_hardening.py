@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import socket
 import struct
 import threading
@@ -24,25 +23,9 @@ from pasim_graph.graphfile import read
 from pasim_graph.studio.limits import MAX_BODY
 from pasim_graph.studio.server import StudioServer
 
-from .conftest import FIXTURES, GRAPHS
 from .test_studio_http import GENERIC_YAML, TOKEN, Client, generic_doc, snapshot
 
-
-@pytest.fixture
-def folder(tmp_path):
-    """A copy of graphs/ (and the broken fixtures) to serve."""
-    root = tmp_path / "graphs"
-    shutil.copytree(GRAPHS, root)
-    shutil.copytree(FIXTURES / "broken", root / "broken")
-    return root
-
-
-@pytest.fixture
-def studio(folder, tmp_path):
-    server = StudioServer(folder, 0, token=TOKEN, runs_dir=tmp_path / "runs")
-    server.serve_in_thread()
-    yield server
-    server.close()
+SERVE_BROKEN = True  # the studio serves the broken fixtures too (conftest.folder)
 
 
 @pytest.fixture

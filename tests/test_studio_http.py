@@ -25,6 +25,7 @@ from pasim_graph.studio.server import StudioServer
 from .conftest import FIXTURES, GRAPHS, ROOT, run_cli
 
 TOKEN = "test-token-0123456789"
+SERVE_BROKEN = True  # the studio serves the broken fixtures too (conftest.folder)
 GENERIC_YAML = "generic_radar.yaml"
 
 
@@ -58,23 +59,6 @@ class Client:
 
     def post(self, path, body=None, **kw):
         return self.request("POST", path, body=body, **kw)
-
-
-@pytest.fixture
-def folder(tmp_path):
-    """A copy of graphs/ (and the broken fixtures) to serve."""
-    root = tmp_path / "graphs"
-    shutil.copytree(GRAPHS, root)
-    shutil.copytree(FIXTURES / "broken", root / "broken")
-    return root
-
-
-@pytest.fixture
-def studio(folder, tmp_path):
-    server = StudioServer(folder, 0, token=TOKEN, runs_dir=tmp_path / "runs")
-    server.serve_in_thread()
-    yield server
-    server.close()
 
 
 @pytest.fixture
