@@ -13,6 +13,7 @@ import xarray as xr
 
 # Moments used for a cell that has reflectivity but lacks another field (e.g. beyond the
 # Doppler cut's range): a still, narrow-spectrum, well-correlated echo.
+from .dsd import DropSizes, fit_drop_sizes
 from .fasttime import RangeModel
 from .spectra import (
     FactorCache,
@@ -45,6 +46,11 @@ class CellModel:
       range component receives from it), each with its own radial velocity drawn from N(mean
       velocity, width^2) and moved every PRT; random backscatter phases with sigma_h = sigma_v
       = sigma / sqrt(2), sigma = sqrt(-2 ln rho_hv), give rho_hv = exp(-sigma^2 / 2).
+      With ``sizes`` (drop size distributions, :mod:`pasim_blocks.weather.dsd`) the drops
+      have their own diameters, drawn from the reflectivity-weighted gamma distribution
+      fitted to the cell (its grid index in ``codes``), and each drop's V amplitude is its
+      own V/H amplitude ratio (no random backscatter phases): ZDR, rho_hv and the
+      backscatter phase come from the drops; ``phase_dp`` is then the propagation part.
     """
 
     def __init__(
@@ -58,14 +64,19 @@ class CellModel:
         pulses: int,
         drops: int,
         dtype: type = np.float32,
+        sizes: DropSizes | None = None,
+        codes: np.ndarray | None = None,
+        propagation_deg: np.ndarray | None = None,
     ):
         self.method = method
+        self.sizes, self.codes = sizes, codes
         self.field = field
         self.rho = rho
         self.prt_s, self.wavelength_m, self.pulses, self.drops = prt_s, wavelength_m, pulses, drops
         self.dtype = dtype
         self.cdtype = np.complex64 if dtype == np.float32 else np.complex128
-        self.phase_dp = np.exp(1j * np.deg2rad(field["PHIDP"]))
+        phidp = field["PHIDP"] if propagation_deg is None else propagation_deg
+        self.phase_dp = np.exp(1j * np.deg2rad(phidp))
         if method != "monte_carlo":
             self.factors = FactorCache(
                 np.clip(field["WRADH"], 0, None), echo, prt_s, wavelength_m, pulses, dtype
@@ -211,6 +222,18 @@ class CellModel:
         scale = 1 / np.sqrt(d)
         for c, share, track in self._drop_batches(rows, gates, gen_h, basis):
             rr, gg = rows[c], gates[c]
+            if self.sizes is not None and self.codes is not None:
+                # Drops of their own sizes: unit H amplitude (reflectivity-weighted draw),
+                # V amplitude their V/H ratio, from gen_h so H does not depend on need_v.
+                _, q = self.sizes.draw(self.codes[rr, gg], gen_h, d)
+                h[c] = scale * (share @ track)
+                if v is not None:
+                    v[c] = (
+                        scale
+                        * ((share * q.astype(self.cdtype)[:, None, :]) @ track)
+                        * self.phase_dp[rr, gg][:, None, None]
+                    )
+                continue
             sigma = np.sqrt(-2 * np.log(np.clip(self.rho[rr, gg], 1e-12, 1.0)) / 2)[:, None]
             phi_h = sigma * gen_h.standard_normal((rr.size, d))
             h[c] = scale * ((share * np.exp(1j * phi_h)[:, None, :]) @ track)
@@ -248,6 +271,7 @@ class TruthCells:
         method: str,
         drops: int,
         dtype: type,
+        sizes: DropSizes | None = None,
     ):
         pad = ranges.pad
 
@@ -268,6 +292,9 @@ class TruthCells:
             0.0,
         )
         field = {k: padded(filled(truth, k, np.isfinite(truth["DBZH"].values))) for k in FILL}
+        codes = propagation = None
+        if sizes is not None:
+            codes, propagation = fit_drop_sizes(sizes, field, dbz, self.echo, step)
         self.s_v = self.s_h / 10 ** (np.clip(field["ZDR"], -8, 8) / 10)
         rho = np.clip(field["RHOHV"], 0.0, 1.0)
         width = np.clip(field["WRADH"], 0.0, None)
@@ -310,6 +337,9 @@ class TruthCells:
                 pulses,
                 drops,
                 dtype,
+                sizes,
+                codes,
+                propagation,
             )
         if method == "combined":
             self._spectra(field["VRADH"], width, prt_s, wavelength_m)

@@ -30,6 +30,7 @@ from ..timing import fine_grid, prt_ratio, transmit_phase
 from .beams import BeamDraw, Coupling, azimuth_profile, cell_solid_angles, coupling_weights
 from .cells import TruthCells
 from .combined import draw_combined, draw_combined_coupled, draw_tones, draw_tones_coupled
+from .dsd import DropSizes
 from .expected import expected_correlations, expected_correlations_coupled
 from .fasttime import range_correlate, range_model
 from .per_cell import draw_per_cell, draw_per_cell_coupled
@@ -117,6 +118,21 @@ class WeatherChannel(Block):
     drops_per_cell = Param(
         256, type="int", min=1, max=100_000, doc="drops per truth cell (monte_carlo only)"
     )
+    drop_sizes = Param(
+        "equal",
+        type="str",
+        choices=("equal", "gamma"),
+        doc="monte_carlo drops: equal (rho_hv from random backscatter phases, eq. 5-12) or "
+        "gamma (a constrained-gamma size distribution fitted per cell to Z and ZDR; ZDR, "
+        "rho_hv and PHIDP from the drops, see pasim_blocks.weather.dsd)",
+    )
+    temperature_c = Param(
+        10.0,
+        units="degC",
+        min=-10.0,
+        max=40.0,
+        doc="temperature of the rain drops (water permittivity; drop_sizes gamma only)",
+    )
     support_db = Param(
         -100.0,
         units="dB",
@@ -192,6 +208,14 @@ class WeatherChannel(Block):
 
     transient = ("_prepared",)
 
+    @classmethod
+    def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
+        if params.get("drop_sizes") == "gamma" and params.get("method", "covariance") != (
+            "monte_carlo"
+        ):
+            return [("parameter 'drop_sizes'", "gamma needs method monte_carlo")]
+        return []
+
     def setup(self) -> None:
         self._prepared: tuple[Any, Any] | None = None
 
@@ -239,6 +263,8 @@ class WeatherChannel(Block):
         # memoised.
         key: tuple[Any, ...] = (id(truth), id(response), k0, prt, lam, pulses, method, dtype)
         key += (self.p["range_support_db"], self.p["drops_per_cell"])
+        gamma = self.p["drop_sizes"] == "gamma" and method == "monte_carlo"
+        key += (gamma, self.p["temperature_c"])
         if self._prepared is None or self._prepared[0] != key:
             ranges = range_model(
                 response,
@@ -247,8 +273,11 @@ class WeatherChannel(Block):
                 _largest_speed(truth),
                 floor_db=self.p["range_support_db"],
             )
+            sizes = (
+                DropSizes.build(self.p["frequency_hz"], self.p["temperature_c"]) if gamma else None
+            )
             cells = TruthCells(
-                truth, ranges, k0, prt, lam, pulses, method, self.p["drops_per_cell"], dtype
+                truth, ranges, k0, prt, lam, pulses, method, self.p["drops_per_cell"], dtype, sizes
             )
             self._prepared = (key, (ranges, cells))
         ranges, cells = self._prepared[1]
