@@ -131,6 +131,10 @@ PULSE = PortType(
             "waveform": Attr("str", "name of the waveform", required=False),
             "width_s": Attr("float", "pulse length", required=False),
             "bandwidth_hz": Attr("float", "swept bandwidth", required=False),
+            "power_divider_ports": Attr(
+                "int", "ports a power divider split the transmitter between", required=False
+            ),
+            "power_divider_loss_db": Attr("float", "that divider's loss", required=False),
         },
     ),
 )
@@ -164,6 +168,12 @@ RANGE_RESPONSE = PortType(
                 "float",
                 "loss of peak SNR against the filter matched to the radiated pulse",
                 required=False,
+            ),
+            "power_divider_ports": Attr(
+                "int", "the radiated pulse's power divider: ports", required=False
+            ),
+            "power_divider_loss_db": Attr(
+                "float", "the radiated pulse's power divider: loss", required=False
             ),
         },
     ),
@@ -296,6 +306,14 @@ CALIBRATION = PortType(
                 "c T / 2 when echoes from beyond it fold onto the gates (range folding)",
                 required=False,
             ),
+            "transmit_power": Attr(
+                "str",
+                "the transmit power convention: per port, or a total through a power divider",
+                required=False,
+            ),
+            "transmit_power_per_port_w": Attr(
+                "float", "peak power radiated at each port (W)", required=False
+            ),
         },
     ),
 )
@@ -321,6 +339,9 @@ MOMENTS = PortType(
         {
             "blind_range_m": Attr("float", "gates nearer than this are not estimated"),
             "calibration": Attr("str", "how beams were calibrated: boresight or per_beam"),
+            "transmit_power": Attr(
+                "str", "the transmit power convention (see CALIBRATION)", required=False
+            ),
             "transmission": Attr("str", "shv or ahv (see CALIBRATION)", required=False),
             "phidp_period_deg": Attr(
                 "float",

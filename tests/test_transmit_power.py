@@ -6,6 +6,8 @@ equation written out here (Pt G^2 lambda^2 pi^5 |K|^2 Z Omega R / ((4 pi)^3 lamb
 Omega the two-way pattern integral, R = 2/3 c tau / 2 for a rectangular pulse and its matched
 filter, over the thermal noise k T0 F / tau), with Pt the power per port: ``peak_power_w``
 without a divider, ``peak_power_w`` x 10^(-loss/10) / 2 with one. Within 0.1 dB in both.
+The convention used is stated in the calibration's attributes (the Pt of the reference) and
+in the scorer's rule, which ``pasim score`` prints under its table.
 """
 
 from __future__ import annotations
@@ -78,7 +80,29 @@ def generic_snr_db(divider: PowerDivider | None) -> tuple[float, dict]:
     )
     gate = int(np.argmin(np.abs(out["calibration"]["range"].values - RANGE_M)))
     snr = out["signal_power"][0, gate, 0] / rx["noise_power"][0, gate, 0]
-    return float(10 * np.log10(snr)), {"graph": graph, "pattern": pattern}
+    chunk = Chunk(beams=beams_idx)
+    moments = block(graph, "ppp").process(
+        {
+            "iq": rx["iq"],
+            "noise_power": rx["noise_power"],
+            "calibration": out["calibration"],
+            "beams": beams,
+            "echo_correlations": out["echo_correlations"],
+        },
+        chunk,
+    )["moments"]
+    scores = block(graph, "scorer").process(
+        {
+            "moments": moments,
+            "truth": truth,
+            "signal_power": out["signal_power"],
+            "noise_power": rx["noise_power"],
+            "beams": beams,
+        },
+        chunk,
+    )["scores"]
+    ctx = {"graph": graph, "pattern": pattern, "calibration": out["calibration"]}
+    return float(10 * np.log10(snr)), ctx | {"rule": scores["scored"].attrs["scored"]}
 
 
 def radar_equation_snr_db(port_power_w: float, omega_sr: float, graph) -> float:
@@ -109,6 +133,10 @@ def test_snr_at_50_km_per_port():
     omega = ctx["pattern"].attrs["two_way_solid_angle_sr_H"]
     ref = radar_equation_snr_db(700e3, omega, ctx["graph"])
     assert snr == pytest.approx(ref, abs=0.1)
+    attrs = ctx["calibration"].attrs
+    assert attrs["transmit_power"].startswith("per port")
+    assert attrs["transmit_power_per_port_w"] == pytest.approx(700e3, rel=1e-9)
+    assert "transmit power: per port" in ctx["rule"]
 
 
 def test_snr_at_50_km_divided_total():
@@ -120,3 +148,8 @@ def test_snr_at_50_km_divided_total():
     ref = radar_equation_snr_db(700e3 * 10 ** (-0.03) / 2, omega, ctx["graph"])
     assert snr == pytest.approx(ref, abs=0.1)
     assert per_port - snr == pytest.approx(10 * np.log10(2) + 0.3, abs=1e-6)
+    attrs = ctx["calibration"].attrs
+    assert attrs["transmit_power"].startswith("divided total")
+    assert "2 ways with 0.3 dB loss" in attrs["transmit_power"]
+    assert attrs["transmit_power_per_port_w"] == pytest.approx(700e3 * 10 ** (-0.03) / 2)
+    assert "transmit power: divided total" in ctx["rule"]

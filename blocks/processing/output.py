@@ -127,6 +127,11 @@ def moments_dataset(
         attrs={
             "blind_range_m": blind,
             "calibration": str(cal.attrs["calibration"]),
+            **(
+                {"transmit_power": cal.attrs["transmit_power"]}
+                if "transmit_power" in cal.attrs
+                else {}
+            ),
             **attrs,
         },
     )

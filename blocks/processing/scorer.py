@@ -110,6 +110,8 @@ class NexradScorer(Block):
             f"{self.p['min_snr_db']:g} dB, beyond the blind range ({blind:g} m); truth = the "
             f"raw radial nearest each beam; calibration: {est.attrs['calibration']}"
         )
+        if "transmit_power" in est.attrs:
+            rule += f"; transmit power: {est.attrs['transmit_power']}"
         if est.attrs.get("transmission") == "ahv":
             rule += (
                 "; transmission: ahv (velocity and phi_DP scored on its own circles, +-v_a and "

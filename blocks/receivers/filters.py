@@ -58,6 +58,17 @@ def range_response(
     )
 
 
+#: Attributes of the radiated pulse handed on to the range response: a power divider's split
+#: (``transmitter.power_divider``), which the weather channel's calibration reports.
+DIVIDER_ATTRS = ("power_divider_ports", "power_divider_loss_db")
+
+
+def with_transmit_attrs(response: xr.Dataset, pulse: xr.Dataset) -> xr.Dataset:
+    """``response`` with the radiated pulse's power-divider attributes, when it has them."""
+    response.attrs.update({k: pulse.attrs[k] for k in DIVIDER_ATTRS if k in pulse.attrs})
+    return response
+
+
 def _pulse_and_reference(inputs: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, float]:
     tx, ref = inputs["pulse"], inputs["reference"]
     fs = float(ref.attrs["sample_rate_hz"])
@@ -86,7 +97,8 @@ class MatchedFilter(Block):
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         s, r, fs = _pulse_and_reference(inputs)
         taps = np.conj(r[::-1]) / float(np.sum(np.abs(r) ** 2))
-        return {"range_response": range_response(s, taps, fs, r.size - 1)}
+        response = range_response(s, taps, fs, r.size - 1)
+        return {"range_response": with_transmit_attrs(response, inputs["pulse"])}
 
 
 def window_samples(name: str, n: int, params: dict[str, Any]) -> np.ndarray:
@@ -173,4 +185,5 @@ class MismatchedFilter(Block):
             zero = shift
         y_ref = scipy.signal.convolve(r, taps, mode="full")
         taps = taps / y_ref[zero]
-        return {"range_response": range_response(s, taps, fs, zero)}
+        response = range_response(s, taps, fs, zero)
+        return {"range_response": with_transmit_attrs(response, inputs["pulse"])}

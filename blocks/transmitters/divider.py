@@ -45,4 +45,9 @@ class PowerDivider(Block):
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         ds = inputs["pulse_in"]
         scale = np.sqrt(port_fraction(self.p["ports"], self.p["loss_db"]))
-        return {"pulse": ds.copy(data={"envelope": ds["envelope"].values * scale})}
+        out = ds.copy(data={"envelope": ds["envelope"].values * scale})
+        # Stamped on the pulse so that the calibration (and the score) can say the
+        # convention: peak_power_w is then the transmitter's total, divided.
+        out.attrs["power_divider_ports"] = int(self.p["ports"])
+        out.attrs["power_divider_loss_db"] = float(self.p["loss_db"])
+        return {"pulse": out}

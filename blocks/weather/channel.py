@@ -402,6 +402,7 @@ class WeatherChannel(Block):
                 "transmission": mode,
                 "transmit_differential_phase_deg": beta,
                 "cross_polar_coupling": int(coupled),
+                **transmit_power(self.p["peak_power_w"], response),
             },
         )
         if overlay is not None:
@@ -517,3 +518,34 @@ def _beta_factors(beta_deg: float) -> np.ndarray:
     t = np.exp(1j * np.deg2rad(beta_deg))
     factors = {"R0_HV": t, "R1_HV": t, "R1_VH": np.conj(t)}
     return np.array([factors.get(k, 1.0) for k in CORRELATION_PRODUCTS])
+
+
+def transmit_power(peak_power_w: float, response: xr.Dataset) -> dict[str, Any]:
+    """The transmit power convention the run used, for the calibration's attributes.
+
+    Without a ``transmitter.power_divider`` upstream ``peak_power_w`` is each port's peak
+    power; with one it is the transmitter's total and each port radiates its share. Either
+    way the power radiated at each port is ``peak_power_w`` times the radiated pulse's peak
+    |envelope|^2 (the amplifier's output, divided).
+    """
+    per_port = peak_power_w * float(np.max(np.abs(response["transmitted"].values) ** 2))
+    ports = response.attrs.get("power_divider_ports")
+    if ports is None:
+        text = f"per port (peak_power_w {_watts(peak_power_w)} at each port, no divider"
+    else:
+        loss = float(response.attrs.get("power_divider_loss_db", 0.0))
+        text = (
+            f"divided total (peak_power_w {_watts(peak_power_w)} split {int(ports)} ways "
+            f"with {loss:g} dB loss"
+        )
+    return {
+        "transmit_power": f"{text}; radiated peak {_watts(per_port)} per port)",
+        "transmit_power_per_port_w": per_port,
+    }
+
+
+def _watts(w: float) -> str:
+    for scale, unit in ((1e6, "MW"), (1e3, "kW")):
+        if w >= scale:
+            return f"{w / scale:.4g} {unit}"
+    return f"{w:.4g} W"
