@@ -32,8 +32,8 @@ def main() -> None:
                 t = time.process_time()
                 out = block.process(inputs, Chunk(beams=beams, seed=seed, block_name="weather"))
                 times[kind].append(time.process_time() - t)
-    for kind, t in times.items():
-        print(f"{kind}: CPU s per call {np.min(t):.2f} min, {np.median(t):.2f} median")
+    for kind, spent in times.items():
+        print(f"{kind}: CPU s per call {np.min(spent):.2f} min, {np.median(spent):.2f} median")
     assert out is not None
     iq = out["iq"][:, 5:-5].astype(np.complex128)
     h, v = iq[..., 0], iq[..., 1]
