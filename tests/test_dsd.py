@@ -150,7 +150,15 @@ def test_drops_give_back_zdr_and_the_distributions_rho_hv():
     )
 
 
-def test_gamma_needs_the_monte_carlo_level():
-    problems = WeatherChannel.check_config({"drop_sizes": "gamma", "method": "covariance"}, set())
-    assert problems and "monte_carlo" in problems[0][1]
-    assert not WeatherChannel.check_config({"drop_sizes": "gamma", "method": "monte_carlo"}, set())
+def test_the_other_levels_ignore_drop_sizes():
+    """drop_sizes only changes the monte_carlo level: covariance with gamma is bit-identical to
+    covariance with equal drops (so a gamma graph runs through pasim tradeoff's ladder)."""
+    beams = np.arange(3)
+    inputs = chain_inputs(uniform_truth(n_gates=40, ZDR=1.5), beams)
+    chunk = Chunk(beams=beams, seed=1, block_name="w")
+    outs = [
+        WeatherChannel(name="w", method="covariance", drop_sizes=d).process(inputs, chunk)
+        for d in ("equal", "gamma")
+    ]
+    for key in ("iq", "signal_power", "echo_correlations"):
+        np.testing.assert_array_equal(outs[0][key], outs[1][key])

@@ -124,7 +124,8 @@ class WeatherChannel(Block):
         choices=("equal", "gamma"),
         doc="monte_carlo drops: equal (rho_hv from random backscatter phases, eq. 5-12) or "
         "gamma (a constrained-gamma size distribution fitted per cell to Z and ZDR; ZDR, "
-        "rho_hv and PHIDP from the drops, see pasim_blocks.weather.dsd)",
+        "rho_hv and PHIDP from the drops, see pasim_blocks.weather.dsd); the other levels "
+        "ignore it, as they ignore drops_per_cell",
     )
     temperature_c = Param(
         10.0,
@@ -207,14 +208,6 @@ class WeatherChannel(Block):
     )
 
     transient = ("_prepared",)
-
-    @classmethod
-    def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
-        if params.get("drop_sizes") == "gamma" and params.get("method", "covariance") != (
-            "monte_carlo"
-        ):
-            return [("parameter 'drop_sizes'", "gamma needs method monte_carlo")]
-        return []
 
     def setup(self) -> None:
         self._prepared: tuple[Any, Any] | None = None
