@@ -199,6 +199,18 @@ def read_radar_sweep(
 
     Parameters and result as :func:`pasim_blocks.truth.nexrad_io.read_truth_sweep`.
     """
+    return read_radar_sweeps(path, lambda _: [elevation_deg], sector_deg, margin_deg)[0]
+
+
+def read_radar_sweeps(
+    path: str | Path,
+    choose: Callable[[list[float]], list[float]],
+    sector_deg: tuple[float, float] | None = None,
+    margin_deg: float = 0.0,
+) -> list[TruthSweep]:
+    """Several PPI sweeps of one radar file, opened once: ``choose`` is given the file's PPI
+    fixed angles (deg, ascending) and returns the elevations to read (each the nearest sweep,
+    as :func:`read_radar_sweep`)."""
     path = Path(path)
     sector, margin = check_sector(sector_deg, margin_deg)
     tree, kind = open_radar_file(path)
@@ -216,14 +228,28 @@ def read_radar_sweep(
             + ", ".join(f"{a:g}" for _, a, _ in described)
             + " deg); the truth block reads PPI sweeps by elevation"
         )
-    distance = [abs(a - elevation_deg) for _, a, _ in ppi]
-    best = ppi[int(np.argmin(distance))]
-    if min(distance) > _MAX_ELEVATION_MISMATCH_DEG:
-        angles = ", ".join(f"{a:.2f}" for _, a, _ in ppi)
-        raise ValueError(
-            f"{path}: no sweep within {_MAX_ELEVATION_MISMATCH_DEG} deg of elevation "
-            f"{elevation_deg} deg; available fixed angles (deg): {angles}"
-        )
+    out = []
+    for elevation_deg in choose(sorted({a for _, a, _ in ppi})):
+        distance = [abs(a - elevation_deg) for _, a, _ in ppi]
+        best = ppi[int(np.argmin(distance))]
+        if min(distance) > _MAX_ELEVATION_MISMATCH_DEG:
+            angles = ", ".join(f"{a:.2f}" for _, a, _ in ppi)
+            raise ValueError(
+                f"{path}: no sweep within {_MAX_ELEVATION_MISMATCH_DEG} deg of elevation "
+                f"{elevation_deg} deg; available fixed angles (deg): {angles}"
+            )
+        out.append(_truth_sweep(tree, kind, path, best, sector, margin))
+    return out
+
+
+def _truth_sweep(
+    tree: Any,
+    kind: str,
+    path: Path,
+    best: tuple[str, float, str],
+    sector: tuple[float, float] | None,
+    margin: float,
+) -> TruthSweep:
     ds = tree[best[0]].to_dataset()
     names = [str(n) for n in ds.data_vars if ds[n].dims == ("azimuth", "range")]
     standard = {n: str(ds[n].attrs.get("standard_name", "")) for n in names}
@@ -304,4 +330,4 @@ def is_level2(path: str | Path) -> bool:
     return head.startswith((b"AR2V", b"ARCHIVE2"))
 
 
-__all__ = ["ALIASES", "is_level2", "open_radar_file", "read_radar_sweep"]
+__all__ = ["ALIASES", "is_level2", "open_radar_file", "read_radar_sweep", "read_radar_sweeps"]

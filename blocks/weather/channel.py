@@ -27,14 +27,23 @@ from ..signals import (
     TRUTH,
 )
 from ..timing import fine_grid, prt_ratio, transmit_phase
-from .beams import BeamDraw, Coupling, azimuth_profile, cell_solid_angles, coupling_weights
-from .cells import TruthCells
+from ..truth.volume import elevation_weights, is_volume
+from .beams import (
+    BeamDraw,
+    Coupling,
+    azimuth_profile,
+    cell_solid_angles,
+    coupling_weights,
+    volume_beam,
+)
+from .cells import TruthCells, flat_volume
 from .combined import draw_combined, draw_combined_coupled, draw_tones, draw_tones_coupled
 from .expected import expected_correlations, expected_correlations_coupled
 from .fasttime import range_correlate, range_model
 from .per_cell import draw_per_cell, draw_per_cell_coupled
 from .polarimetry import (
     MODES,
+    pairs,
     receive_channels,
 )
 from .trips import fold_trips, overlaid_power, trip_count, trip_offsets
@@ -168,6 +177,14 @@ class WeatherChannel(Block):
         doc="add the echoes of earlier pulses from beyond the unambiguous range c T / 2 "
         "(multiple trips); false: every echo first-trip",
     )
+    elevation_support_db = Param(
+        -60.0,
+        units="dB",
+        min=-200.0,
+        max=0.0,
+        doc="volume truth: elevation offsets where the two-way pattern, integrated over "
+        "azimuth, is below this level from its peak read no truth sweep",
+    )
     cross_polar_coupling = Param(
         True,
         type="bool",
@@ -239,16 +256,19 @@ class WeatherChannel(Block):
         # memoised.
         key: tuple[Any, ...] = (id(truth), id(response), k0, prt, lam, pulses, method, dtype)
         key += (self.p["range_support_db"], self.p["drops_per_cell"])
+        volume = is_volume(truth)
         if self._prepared is None or self._prepared[0] != key:
+            # A volume truth: the cells of every sweep, sweep-major (row s x radials + j).
+            seen = flat_volume(truth) if volume else truth
             ranges = range_model(
                 response,
                 gate_m,
                 lam,
-                _largest_speed(truth),
+                _largest_speed(seen),
                 floor_db=self.p["range_support_db"],
             )
             cells = TruthCells(
-                truth, ranges, k0, prt, lam, pulses, method, self.p["drops_per_cell"], dtype
+                seen, ranges, k0, prt, lam, pulses, method, self.p["drops_per_cell"], dtype
             )
             self._prepared = (key, (ranges, cells))
         ranges, cells = self._prepared[1]
@@ -268,12 +288,63 @@ class WeatherChannel(Block):
             el_b = float(beams["elevation"].values[i])
             delta = circular_difference(az_truth, np.asarray(az_b), 360.0)
             near = np.flatnonzero(np.abs(delta) <= support)
-            profile = azimuth_profile(pattern["power"].values[i], d_el, el_b)
-            omega = cell_solid_angles(profile, d_az, delta[near], width_deg)
-            keep = omega.max(axis=0) >= omega.max() * 10 ** (self.p["support_db"] / 10)
+            if volume:
+                # Each sweep weighted by the two-way pattern over the elevations it stands for.
+                seen_by = volume_beam(
+                    pattern["power"].values[i],
+                    d_az,
+                    d_el,
+                    el_b,
+                    near,
+                    delta[near],
+                    width_deg,
+                    elevation_weights(
+                        truth["sweep_elevation"].values,
+                        el_b + d_el,
+                        str(truth.attrs["elevation_interpolation"]),
+                        float(truth.attrs["sweep_beamwidth_deg"]),
+                    ),
+                    az_truth.size,
+                    self.p["elevation_support_db"],
+                )
+                near_az, near, omega = near, seen_by.near, seen_by.omega
+            else:
+                profile = azimuth_profile(pattern["power"].values[i], d_el, el_b)
+                omega = cell_solid_angles(profile, d_az, delta[near], width_deg)
+            if volume:
+                strongest = omega.max(axis=0, initial=0.0)
+                floor = strongest.max(initial=0.0) * 10 ** (self.p["support_db"] / 10)
+                keep = (strongest >= floor) & (strongest > 0)
+            else:
+                keep = omega.max(axis=0) >= omega.max() * 10 ** (self.p["support_db"] / 10)
             near, omega = near[keep], omega[:, keep]
             coupling = None
-            if coupled:
+            if coupled and volume:
+                chans = receive_channels(mode, True)[: max(2, drawn)]
+                coupling = Coupling(
+                    len(chans),
+                    np.concatenate(
+                        [np.zeros((len(pairs(len(chans))), 4, 0), np.complex128)]
+                        + [
+                            coupling_weights(
+                                pattern["co_polar"].values[i],
+                                pattern["cross_polar"].values[i],
+                                d_az,
+                                d_el,
+                                el_b,
+                                delta[near_az],
+                                width_deg,
+                                mode,
+                                beta,
+                                chans,
+                                w,
+                            )
+                            for _, w in seen_by.sweeps
+                        ],
+                        axis=-1,
+                    )[..., keep],
+                )
+            elif coupled:
                 # The expected correlations need both co-polar channels whatever is drawn.
                 chans = receive_channels(mode, True)[: max(2, drawn)]
                 coupling = Coupling(
