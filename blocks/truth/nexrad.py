@@ -133,12 +133,13 @@ class NexradTruth(Block):
         doc="volume: highest beam elevation of the scan (with elevation_min_deg)",
     )
     elevation_margin_deg = Param(
-        3.0,
+        1.5,
         units="deg",
         min=0.0,
         max=45.0,
         doc="volume: sweeps within this of the scan's elevations are read (the pattern's "
-        "support in elevation that matters)",
+        "support in elevation that matters: 1.25 deg for a 1 deg pencil beam at the weather "
+        "channel's elevation_support_db of -60 dB; wider beams need more)",
     )
     sweep_beamwidth_deg = Param(
         1.0,
