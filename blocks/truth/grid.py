@@ -149,9 +149,10 @@ class GriddedTruth(Block):
     geographic ``lat``, ``lon`` (degrees). The radar sits at ``x_m``, ``y_m`` (Cartesian) or
     ``latitude``, ``longitude`` (geographic), ``altitude_m`` above the datum. Virtual sweeps
     every ``elevation_step_deg`` between ``elevation_min_deg`` and ``elevation_max_deg``,
-    widened by ``elevation_margin_deg`` (and one beyond each), are sampled at the centres of ``radial_width_deg`` x ``gate_width_m``
-    cells, each gate placed by 4/3-earth propagation, the moments trilinearly interpolated;
-    the truth is a volume (:mod:`pasim_blocks.truth.volume`), interpolated between the virtual
+    widened by ``elevation_margin_deg`` (and one beyond each), are sampled at the centres of
+    ``radial_width_deg`` x ``gate_width_m`` cells, each gate placed by 4/3-earth propagation,
+    the moments trilinearly interpolated; the truth is a volume
+    (:mod:`pasim_blocks.truth.volume`), interpolated between the virtual
     sweeps as ``elevation_interpolation`` says. Gates outside the grid have no echo. A file
     without reflectivity or without coordinates, or a radar outside the grid, is refused
     before anything is sampled.
