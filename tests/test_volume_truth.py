@@ -327,3 +327,67 @@ def test_volume_truth_at_half_a_degree_scores_as_the_single_sweep(tmp_path, caps
         vol = scores["volume"][moment]
         assert abs(vol["std"] - single["std"]) <= 0.1 * single["std"], (moment, vol, single)
         assert abs(vol["count"] - single["count"]) <= 0.1 * single["count"], moment
+
+
+def test_a_cfradial2_volume_reads_as_the_level2_volume(tmp_path):
+    """Three sweeps of the bundled volume (the project's Level-II reader), written as one
+    CfRadial 2 (FM-301) Zarr tree, give the same volume truth through the radar-file path:
+    every sweep's moments on the same grid, the same elevations (a format round trip, another
+    reader). (xradar 0.12's CfRadial 1 writer loses the rays of all but one sweep when the
+    sweeps differ in ray count, so CfRadial 2 here.)"""
+    from pasim_blocks import DEFAULT_SCENE
+    from pasim_blocks.truth.nexrad_io import read_truth_sweeps
+
+    sector = (280.0, 290.0)
+    sweeps = read_truth_sweeps(DEFAULT_SCENE, [0.5, 1.45, 2.42], sector, 3.0)
+    children = {}
+    for k, sweep in enumerate(sweeps):
+        n = sweep.azimuth_deg.size
+        ds = xr.Dataset(
+            {name: (("azimuth", "range"), v, {"units": "x"}) for name, v in sweep.fields.items()},
+            coords={
+                "azimuth": ("azimuth", sweep.azimuth_deg),
+                "range": ("range", sweep.range_m.astype(np.float32)),
+                "elevation": ("azimuth", np.full(n, sweep.elevation_deg)),
+                "time": (
+                    "azimuth",
+                    np.datetime64("2016-06-01T15:00:25") + np.arange(n).astype("m8[ms]"),
+                ),
+                **{c: sweep.site[c] for c in ("latitude", "longitude", "altitude")},
+            },
+        )
+        ds["sweep_mode"] = "azimuth_surveillance"
+        ds["sweep_number"] = k
+        ds["sweep_fixed_angle"] = round(sweep.elevation_deg, 2)
+        ds["nyquist_velocity"] = ("azimuth", np.full(n, sweep.nyquist_velocity_ms))
+        children[f"/sweep_{k}"] = ds
+    site = {c: sweeps[0].site[c] for c in ("latitude", "longitude", "altitude")}
+    root = xr.Dataset(
+        {
+            "time_coverage_start": "2016-06-01T15:00:25Z",
+            "time_coverage_end": "2016-06-01T15:00:45Z",
+            "volume_number": 0,
+            "platform_type": "fixed",
+            "instrument_type": "radar",
+        },
+        coords=site,
+        attrs={"instrument_name": "KLBB", "Conventions": "Cf/Radial", "history": "pasim test"},
+    )
+    path = tmp_path / "klbb_volume.zarr"
+    xr.DataTree.from_dict({"/": root, **children}).to_zarr(path)
+
+    # The radar-file reader the truth block uses for every format but Level-II (the block's
+    # path parameter takes files, and a Zarr tree is a folder: the reader is called here).
+    from pasim_blocks.truth.radar_files import read_radar_sweeps
+    from pasim_blocks.truth.volume import volume_variables
+
+    again = read_radar_sweeps(path, lambda angles: angles, sector, 3.0)
+    assert [round(s.elevation_deg, 2) for s in again] == [round(s.elevation_deg, 2) for s in sweeps]
+    cf, _ = volume_variables(again, again[0], "nearest", 1.0)
+    l2, _ = volume_variables(sweeps, sweeps[0], "nearest", 1.0)
+    np.testing.assert_allclose(cf["sweep_elevation"][1], l2["sweep_elevation"][1], atol=1e-4)
+    np.testing.assert_allclose(cf["height"][1], l2["height"][1], atol=0.05)
+    for name in ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH"):
+        np.testing.assert_allclose(
+            cf[f"volume_{name}"][1], l2[f"volume_{name}"][1], rtol=1e-6, err_msg=name
+        )
