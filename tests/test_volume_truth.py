@@ -228,7 +228,11 @@ def expected_dbz(truth, beams, antenna, method="expected", **channel):
 def test_a_volume_of_one_sweep_covering_every_elevation_is_the_single_sweep_channel():
     """Same truth through the two code paths: the single-sweep truth (uniform in elevation)
     and a volume of that one sweep standing for every elevation of the pattern grid give the
-    same correlations and, at the covariance level, the same draws."""
+    same correlations and the same draws: the pencil beam (co-polar power patterns) at the
+    ``expected`` and ``covariance`` levels, the planar array (complex co- and cross-polar
+    coupling) at ``expected`` and ``combined``."""
+    from pasim_blocks.antennas.planar import PlanarPatchArray
+
     single = volume_truth(280.0, 290.0, elevation_min_deg=0.5, elevation_max_deg=0.5)
     single = single.drop_vars([n for n in single.variables if n.startswith("volume_")])
     single = single.drop_vars(["sweep_elevation", "height"])
@@ -240,14 +244,22 @@ def test_a_volume_of_one_sweep_covering_every_elevation_is_the_single_sweep_chan
     )
     one.attrs.update(elevation_interpolation="nearest", sweep_beamwidth_deg=60.0)
     beams = beams_at(single, [283.0, 285.5, 287.0], [0.5, 0.5, 0.5])
-    antenna = PencilBeamAntenna(name="a", support_deg=3.0)
-    for method in ("expected", "covariance"):
+    pencil = PencilBeamAntenna(name="a", support_deg=3.0)
+    planar = PlanarPatchArray(name="p", face_azimuth_deg=285.0, support_deg=3.0)
+    for antenna, method in (
+        (pencil, "expected"),
+        (pencil, "covariance"),
+        (planar, "expected"),
+        (planar, "combined"),
+    ):
         _, out_a = expected_dbz(single, beams, antenna, method)
         _, out_b = expected_dbz(one, beams, antenna, method, elevation_support_db=-200.0)
+        assert out_a["echo_correlations"][..., 0].real.max() > 0
         np.testing.assert_allclose(
             out_b["echo_correlations"], out_a["echo_correlations"], rtol=1e-9, atol=1e-30
         )
-        if method == "covariance":
+        if method != "expected":
+            assert np.abs(out_a["iq"]).max() > 0
             np.testing.assert_allclose(out_b["iq"], out_a["iq"], rtol=1e-4, atol=1e-12)
 
 

@@ -238,6 +238,11 @@ class NexradTruth(Block):
                 None if high is None else high + margin,
             )
             reference = min(angles, key=lambda a: abs(a - wanted))
+            if abs(reference - wanted) > 1.0:
+                raise ValueError(
+                    f"{path}: no sweep within 1 deg of elevation_deg {wanted:g} (the reference "
+                    "sweep); fixed angles (deg): " + ", ".join(f"{a:.2f}" for a in angles)
+                )
             return sorted(set(chosen) | {reference})
 
         sector, sector_margin = self.sector(), self.p["margin_deg"]
@@ -254,8 +259,6 @@ class NexradTruth(Block):
             read = read_radar_sweeps(path, remember, sector, sector_margin)
         chosen = choose(angles)
         reference = read[int(np.argmin([abs(a - wanted) for a in chosen]))]
-        if abs(min(chosen, key=lambda a: abs(a - wanted)) - wanted) > 1.0:
-            raise ValueError(f"{path}: no sweep within 1 deg of elevation_deg {wanted:g}")
         width = float(self.p["sweep_beamwidth_deg"])
         variables, attrs = volume_variables(
             read, reference, self.p["elevation_interpolation"], width
