@@ -255,8 +255,10 @@ def beams_at(truth, azimuth, elevation):
     )
 
 
-def expected_dbz(truth, beams, antenna, method="expected", **channel):
-    idx = np.arange(beams.sizes["beam"])
+def expected_dbz(truth, beams, antenna, method="expected", chunk=None, **channel):
+    """Reflectivity from the channel's expected power, and its outputs; ``chunk``: the beams'
+    numbers in the scan (their random streams), 0, 1, ... by default."""
+    idx = np.arange(beams.sizes["beam"]) if chunk is None else chunk
     pattern = antenna.process({"beams": beams}, Chunk(beams=idx))["pattern"]
     pulse = RectangularPulse(name="tx").process({}, Chunk(beams=NO_BEAMS))["pulse"]
     response = MatchedFilter(name="mf").process(
@@ -312,6 +314,22 @@ def test_a_volume_of_one_sweep_covering_every_elevation_is_the_single_sweep_chan
         if method != "expected":
             assert np.abs(out_a["iq"]).max() > 0
             np.testing.assert_allclose(out_b["iq"], out_a["iq"], rtol=1e-4, atol=1e-12)
+
+
+def test_volume_draws_do_not_depend_on_the_chunking():
+    """Beams at 0.5 and 2.4 deg over a volume truth drawn at the covariance level in one chunk
+    and in two give the same I/Q, beam by beam (each beam's own streams, cells prepared from
+    the whole truth)."""
+    truth = volume_truth(280.0, 290.0, elevation_min_deg=0.5, elevation_max_deg=2.4)
+    beams = beams_at(truth, [283.0, 284.0, 285.0, 286.0], [0.5, 0.5, 2.4, 2.4])
+    antenna = PencilBeamAntenna(name="a", support_deg=3.0)
+    _, whole = expected_dbz(truth, beams, antenna, "covariance")
+    parts = [
+        expected_dbz(truth, beams.isel(beam=part), antenna, "covariance", chunk=part)[1]["iq"]
+        for part in (np.array([0, 1]), np.array([2, 3]))
+    ]
+    assert np.abs(whole["iq"]).max() > 0
+    np.testing.assert_array_equal(np.concatenate(parts), whole["iq"])
 
 
 def test_beams_at_higher_elevations_read_the_volumes_own_sweeps():
