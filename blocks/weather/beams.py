@@ -176,6 +176,42 @@ def coupling_weights(
     return (both[:half] + 1j * both[half:]).reshape(len(plist), 4, centre_deg.size)
 
 
+def volume_coupling(
+    co: np.ndarray,
+    cross: np.ndarray,
+    d_az_deg: np.ndarray,
+    d_el_deg: np.ndarray,
+    elevation_deg: float,
+    centre_deg: np.ndarray,
+    width_deg: float,
+    mode: str,
+    transmit_phase_deg: float,
+    channels: list[tuple[int, int]],
+    sweeps: list[tuple[int, np.ndarray]],
+    keep: np.ndarray,
+) -> np.ndarray:
+    """:func:`coupling_weights` of a volume truth's rows (:class:`VolumeBeam`): each sweep's
+    radials ``centre_deg`` with its weight over elevation, sweep-major, the rows ``keep``."""
+    parts = [np.zeros((len(pairs(len(channels))), 4, 0), np.complex128)]
+    for _, weight in sweeps:
+        parts.append(
+            coupling_weights(
+                co,
+                cross,
+                d_az_deg,
+                d_el_deg,
+                elevation_deg,
+                centre_deg,
+                width_deg,
+                mode,
+                transmit_phase_deg,
+                channels,
+                weight,
+            )
+        )
+    return np.concatenate(parts, axis=-1)[..., keep]
+
+
 class BeamDraw(NamedTuple):
     """What every drawing path needs for one beam: the truth cells, the radials near the beam
     and their two-way weights (``omega``: co-polar power patterns; ``coupling``: the complex

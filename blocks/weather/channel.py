@@ -35,6 +35,7 @@ from .beams import (
     cell_solid_angles,
     coupling_weights,
     volume_beam,
+    volume_coupling,
 )
 from .cells import TruthCells, flat_volume
 from .combined import draw_combined, draw_combined_coupled, draw_tones, draw_tones_coupled
@@ -43,7 +44,6 @@ from .fasttime import range_correlate, range_model
 from .per_cell import draw_per_cell, draw_per_cell_coupled
 from .polarimetry import (
     MODES,
-    pairs,
     receive_channels,
 )
 from .trips import fold_trips, overlaid_power, trip_count, trip_offsets
@@ -308,60 +308,39 @@ class WeatherChannel(Block):
                     self.p["elevation_support_db"],
                 )
                 near_az, near, omega = near, seen_by.near, seen_by.omega
-            else:
-                profile = azimuth_profile(pattern["power"].values[i], d_el, el_b)
-                omega = cell_solid_angles(profile, d_az, delta[near], width_deg)
-            if volume:
                 strongest = omega.max(axis=0, initial=0.0)
                 floor = strongest.max(initial=0.0) * 10 ** (self.p["support_db"] / 10)
                 keep = (strongest >= floor) & (strongest > 0)
             else:
+                profile = azimuth_profile(pattern["power"].values[i], d_el, el_b)
+                omega = cell_solid_angles(profile, d_az, delta[near], width_deg)
                 keep = omega.max(axis=0) >= omega.max() * 10 ** (self.p["support_db"] / 10)
             near, omega = near[keep], omega[:, keep]
             coupling = None
-            if coupled and volume:
-                chans = receive_channels(mode, True)[: max(2, drawn)]
-                coupling = Coupling(
-                    len(chans),
-                    np.concatenate(
-                        [np.zeros((len(pairs(len(chans))), 4, 0), np.complex128)]
-                        + [
-                            coupling_weights(
-                                pattern["co_polar"].values[i],
-                                pattern["cross_polar"].values[i],
-                                d_az,
-                                d_el,
-                                el_b,
-                                delta[near_az],
-                                width_deg,
-                                mode,
-                                beta,
-                                chans,
-                                w,
-                            )
-                            for _, w in seen_by.sweeps
-                        ],
-                        axis=-1,
-                    )[..., keep],
-                )
-            elif coupled:
+            if coupled:
                 # The expected correlations need both co-polar channels whatever is drawn.
                 chans = receive_channels(mode, True)[: max(2, drawn)]
-                coupling = Coupling(
-                    len(chans),
-                    coupling_weights(
-                        pattern["co_polar"].values[i],
-                        pattern["cross_polar"].values[i],
+                co, cross = pattern["co_polar"].values[i], pattern["cross_polar"].values[i]
+                if volume:
+                    weights = volume_coupling(
+                        co,
+                        cross,
                         d_az,
                         d_el,
                         el_b,
-                        delta[near],
+                        delta[near_az],
                         width_deg,
                         mode,
                         beta,
                         chans,
-                    ),
-                )
+                        seen_by.sweeps,
+                        keep,
+                    )
+                else:
+                    weights = coupling_weights(
+                        co, cross, d_az, d_el, el_b, delta[near], width_deg, mode, beta, chans
+                    )
+                coupling = Coupling(len(chans), weights)
             terms = ranges.power.shape[0]
             alternate = mode == "ahv"
             expected = (
