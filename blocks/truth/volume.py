@@ -128,7 +128,12 @@ def volume_variables(
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """The truth Dataset's volume variables and attributes (see the module's description)."""
     order = np.argsort([s.elevation_deg for s in sweeps], kind="stable")
-    sweeps = [sweeps[i] for i in order]
+    kept: list[Any] = []
+    for i in order:
+        # Two sweeps at one elevation (a file that revisits it): the first one read.
+        if not kept or sweeps[i].elevation_deg - kept[-1].elevation_deg > 0.01:
+            kept.append(sweeps[i])
+    sweeps = kept
     elevation = np.array([s.elevation_deg for s in sweeps], np.float64)
     fields = stack(sweeps, reference)
     variables: dict[str, Any] = {
