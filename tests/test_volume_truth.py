@@ -255,14 +255,14 @@ def beams_at(truth, azimuth, elevation):
     )
 
 
-def expected_dbz(truth, beams, antenna, method="expected", chunk=None, **channel):
+def expected_dbz(truth, beams, antenna, method="expected", chunk=None, pulse_s=1.6e-6, **channel):
     """Reflectivity from the channel's expected power, and its outputs; ``chunk``: the beams'
     numbers in the scan (their random streams), 0, 1, ... by default."""
     idx = np.arange(beams.sizes["beam"]) if chunk is None else chunk
     pattern = antenna.process({"beams": beams}, Chunk(beams=idx))["pattern"]
-    pulse = RectangularPulse(name="tx").process({}, Chunk(beams=NO_BEAMS))["pulse"]
+    pulse = RectangularPulse(name="tx", width_s=pulse_s).process({}, Chunk(beams=NO_BEAMS))
     response = MatchedFilter(name="mf").process(
-        {"pulse": pulse, "reference": pulse}, Chunk(beams=NO_BEAMS)
+        {"pulse": pulse["pulse"], "reference": pulse["pulse"]}, Chunk(beams=NO_BEAMS)
     )["range_response"]
     out = WeatherChannel(name="w", method=method, **channel).process(
         {"truth": truth, "beams": beams, "pattern": pattern, "range_response": response},
@@ -472,3 +472,29 @@ def test_a_cfradial2_volume_reads_as_the_level2_volume(tmp_path):
         np.testing.assert_allclose(
             cf[f"volume_{name}"][1], l2[f"volume_{name}"][1], rtol=1e-6, err_msg=name
         )
+
+
+def test_uf_rhis_run_as_a_volume_truth():
+    """The UF file's three RHIs (azimuths 171-173 deg) as a volume truth: their rays regrouped
+    by elevation (the rays' own spacing), read by beams at 172 deg from 0.5 to 19.5 deg; an
+    ideal 0.1 deg beam (narrower than the rays' 0.19 deg spacing) and a 0.2 us pulse (the
+    file's gates are 150 m) give the ray nearest its elevation (the file's own values) within
+    a median 0.5 dB (measured: 0.13 dB)."""
+    from .test_radar_files import shared
+
+    path = shared("MC3E_NPOL_2011_0524_2356_hid.uf.gz")
+    block = NexradTruth(
+        name="truth", path=str(path), sweeps="volume", elevation_min_deg=0.5, elevation_max_deg=19.5
+    )
+    truth = block.process({}, Chunk(beams=NO_BEAMS, resource=block.load()))["truth"]
+    np.testing.assert_allclose(truth["azimuth"].values, [171.0, 172.0, 173.0])
+    step = np.diff(truth["sweep_elevation"].values)
+    np.testing.assert_allclose(step, 0.1875)  # NPOL's ray spacing in these RHIs
+    elevation = np.arange(0.5, 19.51, 1.0)
+    beams = beams_at(truth, 172.0, elevation)
+    antenna = IdealAntenna(name="a", beamwidth_deg=0.1, support_deg=0.3, grid_step_deg=0.01)
+    dbz, _ = expected_dbz(truth, beams, antenna, pulse_s=2e-7)
+    own = beam_truth(truth, beams["azimuth"].values, elevation)["DBZH"].values
+    echo = np.isfinite(own) & (own > 10) & (truth["range"].values > 5e3)
+    assert echo.sum() > 1000
+    assert np.median(np.abs(dbz[echo] - own[echo])) < 0.5

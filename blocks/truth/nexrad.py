@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -224,8 +225,10 @@ class NexradTruth(Block):
 
     def _volume(self, path: Any) -> tuple[Any, Any]:
         """The reference sweep and the volume's variables (only the sweeps the scan needs)."""
+        from .gridding import check_sector
         from .nexrad_io import read_truth_sweeps, volume_angles
-        from .radar_files import is_level2, read_radar_sweeps
+        from .radar_files import is_level2, open_radar_file, sweeps_from_tree
+        from .rhi_files import only_rhis, rhi_sweeps
 
         low, high = self.p["elevation_min_deg"], self.p["elevation_max_deg"]
         margin = self.p["elevation_margin_deg"]
@@ -256,7 +259,13 @@ class NexradTruth(Block):
                 angles.extend(available)
                 return choose(available)
 
-            read = read_radar_sweeps(path, remember, sector, sector_margin)
+            tree, kind = open_radar_file(path)
+            if only_rhis(tree):
+                # RHIs: their rays regrouped by elevation, over the RHIs' own azimuths.
+                read = rhi_sweeps(tree, kind, Path(path), remember)
+            else:
+                limits = check_sector(sector, sector_margin)
+                read = sweeps_from_tree(tree, kind, Path(path), remember, *limits)
         chosen = choose(angles)
         reference = read[int(np.argmin([abs(a - wanted) for a in chosen]))]
         width = float(self.p["sweep_beamwidth_deg"])

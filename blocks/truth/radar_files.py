@@ -214,6 +214,11 @@ def read_radar_sweeps(
     path = Path(path)
     sector, margin = check_sector(sector_deg, margin_deg)
     tree, kind = open_radar_file(path)
+    return sweeps_from_tree(tree, kind, path, choose, sector, margin)
+
+
+def sweep_modes(tree: Any) -> list[tuple[str, float, str]]:
+    """(name, fixed angle, mode) of each sweep of an opened radar file, in file order."""
     sweeps = sorted((str(c) for c in tree.children if str(c).startswith("sweep_")), key=_number)
     described = []
     for name in sweeps:
@@ -221,12 +226,26 @@ def read_radar_sweeps(
         mode = str(np.asarray(ds["sweep_mode"]).item()) if "sweep_mode" in ds else ""
         angle = float(np.asarray(ds["sweep_fixed_angle"]).ravel()[0])
         described.append((name, angle, mode))
+    return described
+
+
+def sweeps_from_tree(
+    tree: Any,
+    kind: str,
+    path: Path,
+    choose: Callable[[list[float]], list[float]],
+    sector: tuple[float, float] | None,
+    margin: float,
+) -> list[TruthSweep]:
+    """:func:`read_radar_sweeps` on a file already opened (:func:`open_radar_file`)."""
+    described = sweep_modes(tree)
     ppi = [d for d in described if "rhi" not in d[2].lower()]
     if not ppi:
         raise ValueError(
             f"{path} ({kind}) holds only RHI sweeps (azimuths "
             + ", ".join(f"{a:g}" for _, a, _ in described)
-            + " deg); the truth block reads PPI sweeps by elevation"
+            + " deg); the truth block reads PPI sweeps by elevation, or RHIs as a volume "
+            "(sweeps: volume)"
         )
     out = []
     for elevation_deg in choose(sorted({a for _, a, _ in ppi})):
@@ -267,21 +286,7 @@ def _truth_sweep(
     fields = {
         moment: np.asarray(ds[var].values, np.float32)[order] for moment, var in mapping.items()
     }
-    root = tree.to_dataset()
-    site = {
-        "latitude": _scalar(root, "latitude", ds),
-        "longitude": _scalar(root, "longitude", ds),
-        "altitude": _scalar(root, "altitude", ds),
-        "instrument_name": str(tree.attrs.get("instrument_name", path.stem)).strip(),
-        "time_coverage_start": str(np.asarray(root["time_coverage_start"]).item())
-        if "time_coverage_start" in root
-        else "",
-    }
-    nyquist = float("nan")
-    if "nyquist_velocity" in ds:
-        values = np.asarray(ds["nyquist_velocity"].values, np.float64).ravel()
-        values = values[np.isfinite(values)]
-        nyquist = float(np.median(values)) if values.size else nyquist
+    site, nyquist = file_site(tree, ds, path), file_nyquist(ds)
     return TruthSweep(
         azimuth_deg=azimuth[order],
         elevation_deg=float(np.nanmean(ds["elevation"].values))
@@ -295,6 +300,30 @@ def _truth_sweep(
         site=site,
         source=path.name,
     )
+
+
+def file_site(tree: Any, sweep: Any, path: Path) -> dict[str, Any]:
+    """The radar's position, name and start time as a radar file records them (0 and '' where
+    it does not)."""
+    root = tree.to_dataset()
+    return {
+        "latitude": _scalar(root, "latitude", sweep),
+        "longitude": _scalar(root, "longitude", sweep),
+        "altitude": _scalar(root, "altitude", sweep),
+        "instrument_name": str(tree.attrs.get("instrument_name", path.stem)).strip(),
+        "time_coverage_start": str(np.asarray(root["time_coverage_start"]).item())
+        if "time_coverage_start" in root
+        else "",
+    }
+
+
+def file_nyquist(sweep: Any) -> float:
+    """The sweep's Nyquist velocity (the median of the rays'), NaN when not recorded."""
+    if "nyquist_velocity" not in sweep:
+        return float("nan")
+    values = np.asarray(sweep["nyquist_velocity"].values, np.float64).ravel()
+    values = values[np.isfinite(values)]
+    return float(np.median(values)) if values.size else float("nan")
 
 
 def _number(name: str) -> int:
@@ -330,4 +359,14 @@ def is_level2(path: str | Path) -> bool:
     return head.startswith((b"AR2V", b"ARCHIVE2"))
 
 
-__all__ = ["ALIASES", "is_level2", "open_radar_file", "read_radar_sweep", "read_radar_sweeps"]
+__all__ = [
+    "ALIASES",
+    "file_nyquist",
+    "file_site",
+    "is_level2",
+    "open_radar_file",
+    "read_radar_sweep",
+    "read_radar_sweeps",
+    "sweep_modes",
+    "sweeps_from_tree",
+]
