@@ -57,9 +57,27 @@ TRUTH = PortType(
             **_moments(("radial", "gate"), required=("DBZH",)),
             "azimuth": Var("float64", ("radial",), "degrees", "radial azimuths, clockwise"),
             "range": Var("float64", ("gate",), "meters", "gate centre ranges"),
+            # A volume truth (truth.sweeps = volume): every sweep read, on the same grid.
+            **_moments(("sweep", "radial", "gate"), prefix="volume_"),
+            "sweep_elevation": Var(
+                "float64",
+                ("sweep",),
+                "degrees",
+                "elevation of each sweep of a volume truth",
+                required=False,
+            ),
+            "height": Var(
+                "float64", ("sweep", "gate"), "meters", "beam height (4/3 earth)", required=False
+            ),
         },
         {
             "elevation_deg": Attr("float", "elevation of the sweep"),
+            "elevation_interpolation": Attr(
+                "str", "volume truth: linear or nearest in elevation", required=False
+            ),
+            "sweep_beamwidth_deg": Attr(
+                "float", "volume truth: elevations each sweep stands for", required=False
+            ),
             "radial_width_deg": Attr("float", "azimuth spacing of the radials"),
             "gate_width_m": Attr("float", "range spacing of the gates"),
             "nyquist_velocity_ms": Attr("float", "Nyquist velocity of the truth (NaN: none)"),

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -12,6 +13,7 @@ from pasim_graph import Block, Chunk, Output, Param, RunNote
 
 from .. import DEFAULT_SCENE
 from ..signals import MOMENT_UNITS, TRUTH
+from .volume import INTERPOLATIONS, covered, select_angles, volume_variables
 
 
 def truth_dataset(
@@ -48,6 +50,14 @@ class NexradTruth(Block):
     A truth without ZDR, RHOHV and PHIDP (a legacy single-polarisation file) has none of
     those variables, ``polarimetric = 0``, and the run gets a note that it is single
     polarisation.
+
+    ``sweeps = volume`` reads every sweep of the volume (with ``elevation_min_deg`` and
+    ``elevation_max_deg``, those within ``elevation_margin_deg`` of the scan's elevations and
+    the next one either side) onto the reference sweep's grid, each gate placed in height by
+    4/3-earth propagation, interpolated in elevation as ``elevation_interpolation`` says
+    (:mod:`pasim_blocks.truth.volume`); the weather channel then weights it over elevation by
+    the two-way pattern. The reference sweep (nearest ``elevation_deg``) stays the truth's
+    ``(radial, gate)`` moments, as with one sweep.
     """
 
     role = "truth"
@@ -92,8 +102,63 @@ class NexradTruth(Block):
         ),
     )
 
+    sweeps = Param(
+        "single",
+        type="str",
+        choices=("single", "volume"),
+        doc="single: the sweep nearest elevation_deg, taken as uniform in elevation; volume: "
+        "every sweep, interpolated in elevation",
+    )
+    elevation_interpolation = Param(
+        "nearest",
+        type="str",
+        choices=INTERPOLATIONS,
+        doc="volume: between sweeps, nearest (each sweep stands for the elevations nearer it "
+        "than any other, as its own beam measured them) or linear (the two either side mixed)",
+    )
+    elevation_min_deg = Param(
+        None,
+        units="deg",
+        min=-2.0,
+        max=90.0,
+        optional=True,
+        doc="volume: lowest beam elevation of the scan (with elevation_max_deg: only the "
+        "sweeps it needs are read; unset: all)",
+    )
+    elevation_max_deg = Param(
+        None,
+        units="deg",
+        min=-2.0,
+        max=90.0,
+        optional=True,
+        doc="volume: highest beam elevation of the scan (with elevation_min_deg)",
+    )
+    elevation_margin_deg = Param(
+        1.5,
+        units="deg",
+        min=0.0,
+        max=45.0,
+        doc="volume: sweeps within this of the scan's elevations are read (the pattern's "
+        "support in elevation that matters: 1.25 deg for a 1 deg pencil beam at the weather "
+        "channel's elevation_support_db of -60 dB; wider beams need more)",
+    )
+    sweep_beamwidth_deg = Param(
+        1.0,
+        units="deg",
+        min=0.01,
+        max=10.0,
+        doc="volume: each sweep stands for the elevations within half of this; below the "
+        "lowest sweep's and above the top sweep's there is no echo",
+    )
+
     @classmethod
     def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
+        low, high = params.get("elevation_min_deg"), params.get("elevation_max_deg")
+        if (low is None) != (high is None):
+            given = "elevation_min_deg" if high is None else "elevation_max_deg"
+            return [(f"parameter '{given}'", "needs the other end too (or neither: all sweeps)")]
+        if low is not None and high is not None and low > high:
+            return [("parameter 'elevation_min_deg'", f"{low:g} is above elevation_max_deg")]
         start, stop = params.get("azimuth_start_deg"), params.get("azimuth_stop_deg")
         if (start is None) != (stop is None):
             given, missing = (
@@ -119,15 +184,19 @@ class NexradTruth(Block):
         from .radar_files import is_level2, read_radar_sweep
 
         path = self.p["path"] or DEFAULT_SCENE
-        # Level-II through the project's own reader (it beats xradar's there); any other
-        # radar file through xradar's backend for its format.
-        reader = read_truth_sweep if is_level2(path) else read_radar_sweep
-        sweep = reader(
-            path,
-            self.p["elevation_deg"],
-            sector_deg=self.sector(),
-            margin_deg=self.p["margin_deg"],
-        )
+        if self.p["sweeps"] == "volume":
+            sweep, volume = self._volume(path)
+        else:
+            # Level-II through the project's own reader (it beats xradar's there); any other
+            # radar file through xradar's backend for its format.
+            reader = read_truth_sweep if is_level2(path) else read_radar_sweep
+            sweep = reader(
+                path,
+                self.p["elevation_deg"],
+                sector_deg=self.sector(),
+                margin_deg=self.p["margin_deg"],
+            )
+            volume = None
         present = [name for name in POLARIMETRIC_FIELDS if name in sweep.fields]
         if not present:
             warnings.warn(
@@ -151,10 +220,72 @@ class NexradTruth(Block):
                 RunNote,
                 stacklevel=2,
             )
-        return sweep
+        # One sweep is the resource as it always was; a volume adds its variables.
+        return sweep if volume is None else (sweep, volume)
+
+    def _volume(self, path: Any) -> tuple[Any, Any]:
+        """The reference sweep and the volume's variables (only the sweeps the scan needs)."""
+        from .gridding import check_sector
+        from .nexrad_io import read_truth_sweeps, volume_angles
+        from .radar_files import is_level2, open_radar_file, sweeps_from_tree
+        from .rhi_files import only_rhis, rhi_sweeps
+
+        low, high = self.p["elevation_min_deg"], self.p["elevation_max_deg"]
+        margin = self.p["elevation_margin_deg"]
+        wanted = float(self.p["elevation_deg"])
+
+        def choose(angles: list[float]) -> list[float]:
+            chosen = select_angles(
+                angles,
+                None if low is None else low - margin,
+                None if high is None else high + margin,
+            )
+            reference = min(angles, key=lambda a: abs(a - wanted))
+            if abs(reference - wanted) > 1.0:
+                raise ValueError(
+                    f"{path}: no sweep within 1 deg of elevation_deg {wanted:g} (the reference "
+                    "sweep); fixed angles (deg): " + ", ".join(f"{a:.2f}" for a in angles)
+                )
+            return sorted(set(chosen) | {reference})
+
+        sector, sector_margin = self.sector(), self.p["margin_deg"]
+        if is_level2(path):
+            angles = volume_angles(path)
+            read = read_truth_sweeps(path, choose(angles), sector, sector_margin)
+        else:
+            angles = []
+
+            def remember(available: list[float]) -> list[float]:
+                angles.extend(available)
+                return choose(available)
+
+            tree, kind = open_radar_file(path)
+            if only_rhis(tree):
+                # RHIs: their rays regrouped by elevation, over the RHIs' own azimuths.
+                read = rhi_sweeps(tree, kind, Path(path), remember)
+            else:
+                limits = check_sector(sector, sector_margin)
+                read = sweeps_from_tree(tree, kind, Path(path), remember, *limits)
+        chosen = choose(angles)
+        reference = read[int(np.argmin([abs(a - wanted) for a in chosen]))]
+        width = float(self.p["sweep_beamwidth_deg"])
+        variables, attrs = volume_variables(
+            read, reference, self.p["elevation_interpolation"], width
+        )
+        lo, hi = covered(variables["sweep_elevation"][1], width)
+        warnings.warn(
+            f"truth {reference.source}: volume of {len(read)} sweeps ("
+            + ", ".join(f"{s.elevation_deg:.2f}" for s in sorted(read, key=_elevation))
+            + f" deg) of the file's {len(angles)}; no echo below {lo:.2f} or above {hi:.2f} deg "
+            "elevation (nothing is invented outside the sweeps)",
+            RunNote,
+            stacklevel=2,
+        )
+        return reference, (variables, attrs)
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        sweep = chunk.resource
+        resource = chunk.resource
+        sweep, volume = resource if isinstance(resource, tuple) else (resource, None)
         ds = truth_dataset(
             sweep.fields,
             sweep.azimuth_deg,
@@ -167,4 +298,12 @@ class NexradTruth(Block):
             source=str(sweep.source),
             **sweep.site,
         )
+        if volume is not None:
+            variables, attrs = volume
+            ds = ds.assign(variables)
+            ds.attrs.update(attrs)
         return {"truth": ds}
+
+
+def _elevation(sweep: Any) -> float:
+    return float(sweep.elevation_deg)

@@ -59,6 +59,8 @@ __all__ = [
     "SURVEILLANCE_FIELDS",
     "TruthSweep",
     "read_truth_sweep",
+    "read_truth_sweeps",
+    "volume_angles",
 ]
 
 
@@ -192,8 +194,49 @@ def read_truth_sweep(
     path = Path(path)
     sector, margin = check_sector(sector_deg, margin_deg)
     volume = scan_volume(path, float(elevation_deg))
-    surveillance, doppler = choose_cuts(volume.cuts, float(elevation_deg), path)
+    return _sweep(path, volume, float(elevation_deg), sector, margin, sector_deg, margin_deg)
 
+
+def volume_angles(path: str | PathLike[str]) -> list[float]:
+    """The distinct fixed angles (deg, ascending) of a Level-II volume's cuts (headers only)."""
+    volume = scan_volume(Path(path), 90.0)
+    angles: list[float] = []
+    for cut in sorted(volume.cuts, key=lambda c: c.fixed_angle):
+        if "DBZH" in cut.moments and (not angles or cut.fixed_angle - angles[-1] > 0.1):
+            angles.append(float(cut.fixed_angle))
+    return angles
+
+
+def read_truth_sweeps(
+    path: str | PathLike[str],
+    elevations_deg: list[float],
+    sector_deg: tuple[float, float] | None = None,
+    margin_deg: float = 0.0,
+) -> list[TruthSweep]:
+    """The truth sweeps at several elevations of one volume (each as :func:`read_truth_sweep`).
+
+    The headers are read once, up to the end of the highest cut asked for; each elevation's
+    cuts are then decoded (only the radials of the sector).
+    """
+    path = Path(path)
+    sector, margin = check_sector(sector_deg, margin_deg)
+    volume = scan_volume(path, float(max(elevations_deg)))
+    return [
+        _sweep(path, volume, float(e), sector, margin, sector_deg, margin_deg)
+        for e in elevations_deg
+    ]
+
+
+def _sweep(
+    path: Path,
+    volume: Any,
+    elevation_deg: float,
+    sector: tuple[float, float] | None,
+    margin: float,
+    sector_deg: tuple[float, float] | None,
+    margin_deg: float,
+) -> TruthSweep:
+    surveillance, doppler = choose_cuts(volume.cuts, elevation_deg, path)
     for cut in (surveillance, doppler):
         if cut is not None and not cut.complete:
             # Real-time chunks and cut-off downloads end mid-sweep; the result is still usable

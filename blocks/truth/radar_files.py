@@ -199,9 +199,26 @@ def read_radar_sweep(
 
     Parameters and result as :func:`pasim_blocks.truth.nexrad_io.read_truth_sweep`.
     """
+    return read_radar_sweeps(path, lambda _: [elevation_deg], sector_deg, margin_deg)[0]
+
+
+def read_radar_sweeps(
+    path: str | Path,
+    choose: Callable[[list[float]], list[float]],
+    sector_deg: tuple[float, float] | None = None,
+    margin_deg: float = 0.0,
+) -> list[TruthSweep]:
+    """Several PPI sweeps of one radar file, opened once: ``choose`` is given the file's PPI
+    fixed angles (deg, ascending) and returns the elevations to read (each the nearest sweep,
+    as :func:`read_radar_sweep`)."""
     path = Path(path)
     sector, margin = check_sector(sector_deg, margin_deg)
     tree, kind = open_radar_file(path)
+    return sweeps_from_tree(tree, kind, path, choose, sector, margin)
+
+
+def sweep_modes(tree: Any) -> list[tuple[str, float, str]]:
+    """(name, fixed angle, mode) of each sweep of an opened radar file, in file order."""
     sweeps = sorted((str(c) for c in tree.children if str(c).startswith("sweep_")), key=_number)
     described = []
     for name in sweeps:
@@ -209,21 +226,49 @@ def read_radar_sweep(
         mode = str(np.asarray(ds["sweep_mode"]).item()) if "sweep_mode" in ds else ""
         angle = float(np.asarray(ds["sweep_fixed_angle"]).ravel()[0])
         described.append((name, angle, mode))
+    return described
+
+
+def sweeps_from_tree(
+    tree: Any,
+    kind: str,
+    path: Path,
+    choose: Callable[[list[float]], list[float]],
+    sector: tuple[float, float] | None,
+    margin: float,
+) -> list[TruthSweep]:
+    """:func:`read_radar_sweeps` on a file already opened (:func:`open_radar_file`)."""
+    described = sweep_modes(tree)
     ppi = [d for d in described if "rhi" not in d[2].lower()]
     if not ppi:
         raise ValueError(
             f"{path} ({kind}) holds only RHI sweeps (azimuths "
             + ", ".join(f"{a:g}" for _, a, _ in described)
-            + " deg); the truth block reads PPI sweeps by elevation"
+            + " deg); the truth block reads PPI sweeps by elevation, or RHIs as a volume "
+            "(sweeps: volume)"
         )
-    distance = [abs(a - elevation_deg) for _, a, _ in ppi]
-    best = ppi[int(np.argmin(distance))]
-    if min(distance) > _MAX_ELEVATION_MISMATCH_DEG:
-        angles = ", ".join(f"{a:.2f}" for _, a, _ in ppi)
-        raise ValueError(
-            f"{path}: no sweep within {_MAX_ELEVATION_MISMATCH_DEG} deg of elevation "
-            f"{elevation_deg} deg; available fixed angles (deg): {angles}"
-        )
+    out = []
+    for elevation_deg in choose(sorted({a for _, a, _ in ppi})):
+        distance = [abs(a - elevation_deg) for _, a, _ in ppi]
+        best = ppi[int(np.argmin(distance))]
+        if min(distance) > _MAX_ELEVATION_MISMATCH_DEG:
+            angles = ", ".join(f"{a:.2f}" for _, a, _ in ppi)
+            raise ValueError(
+                f"{path}: no sweep within {_MAX_ELEVATION_MISMATCH_DEG} deg of elevation "
+                f"{elevation_deg} deg; available fixed angles (deg): {angles}"
+            )
+        out.append(_truth_sweep(tree, kind, path, best, sector, margin))
+    return out
+
+
+def _truth_sweep(
+    tree: Any,
+    kind: str,
+    path: Path,
+    best: tuple[str, float, str],
+    sector: tuple[float, float] | None,
+    margin: float,
+) -> TruthSweep:
     ds = tree[best[0]].to_dataset()
     names = [str(n) for n in ds.data_vars if ds[n].dims == ("azimuth", "range")]
     standard = {n: str(ds[n].attrs.get("standard_name", "")) for n in names}
@@ -241,21 +286,7 @@ def read_radar_sweep(
     fields = {
         moment: np.asarray(ds[var].values, np.float32)[order] for moment, var in mapping.items()
     }
-    root = tree.to_dataset()
-    site = {
-        "latitude": _scalar(root, "latitude", ds),
-        "longitude": _scalar(root, "longitude", ds),
-        "altitude": _scalar(root, "altitude", ds),
-        "instrument_name": str(tree.attrs.get("instrument_name", path.stem)).strip(),
-        "time_coverage_start": str(np.asarray(root["time_coverage_start"]).item())
-        if "time_coverage_start" in root
-        else "",
-    }
-    nyquist = float("nan")
-    if "nyquist_velocity" in ds:
-        values = np.asarray(ds["nyquist_velocity"].values, np.float64).ravel()
-        values = values[np.isfinite(values)]
-        nyquist = float(np.median(values)) if values.size else nyquist
+    site, nyquist = file_site(tree, ds, path), file_nyquist(ds)
     return TruthSweep(
         azimuth_deg=azimuth[order],
         elevation_deg=float(np.nanmean(ds["elevation"].values))
@@ -269,6 +300,30 @@ def read_radar_sweep(
         site=site,
         source=path.name,
     )
+
+
+def file_site(tree: Any, sweep: Any, path: Path) -> dict[str, Any]:
+    """The radar's position, name and start time as a radar file records them (0 and '' where
+    it does not)."""
+    root = tree.to_dataset()
+    return {
+        "latitude": _scalar(root, "latitude", sweep),
+        "longitude": _scalar(root, "longitude", sweep),
+        "altitude": _scalar(root, "altitude", sweep),
+        "instrument_name": str(tree.attrs.get("instrument_name", path.stem)).strip(),
+        "time_coverage_start": str(np.asarray(root["time_coverage_start"]).item())
+        if "time_coverage_start" in root
+        else "",
+    }
+
+
+def file_nyquist(sweep: Any) -> float:
+    """The sweep's Nyquist velocity (the median of the rays'), NaN when not recorded."""
+    if "nyquist_velocity" not in sweep:
+        return float("nan")
+    values = np.asarray(sweep["nyquist_velocity"].values, np.float64).ravel()
+    values = values[np.isfinite(values)]
+    return float(np.median(values)) if values.size else float("nan")
 
 
 def _number(name: str) -> int:
@@ -304,4 +359,14 @@ def is_level2(path: str | Path) -> bool:
     return head.startswith((b"AR2V", b"ARCHIVE2"))
 
 
-__all__ = ["ALIASES", "is_level2", "open_radar_file", "read_radar_sweep"]
+__all__ = [
+    "ALIASES",
+    "file_nyquist",
+    "file_site",
+    "is_level2",
+    "open_radar_file",
+    "read_radar_sweep",
+    "read_radar_sweeps",
+    "sweep_modes",
+    "sweeps_from_tree",
+]

@@ -19,13 +19,73 @@ from .polarimetry import (
 )
 
 
-def azimuth_profile(power: np.ndarray, d_el_deg: np.ndarray, elevation_deg: float) -> np.ndarray:
-    """Two-way pattern integrated over elevation (rad), per polarisation and azimuth offset."""
+def azimuth_profile(
+    power: np.ndarray,
+    d_el_deg: np.ndarray,
+    elevation_deg: float,
+    weight: np.ndarray | None = None,
+) -> np.ndarray:
+    """Two-way pattern integrated over elevation (rad), per polarisation and azimuth offset.
+
+    ``weight`` (one per elevation offset): a volume sweep's share of the truth there; only
+    the offsets where it is not zero are summed.
+    """
     cos_el = np.cos(np.deg2rad(elevation_deg + d_el_deg))
     step = np.deg2rad(d_el_deg[1] - d_el_deg[0])
+    if weight is not None:
+        e = np.flatnonzero(weight)
+        p = power[:, e].astype(np.float64)
+        p *= p
+        return np.einsum("e,pea->pa", cos_el[e] * weight[e], p) * step
     p = power.astype(np.float64)
     p *= p
     return np.einsum("e,pea->pa", cos_el, p) * step
+
+
+class VolumeBeam(NamedTuple):
+    """Where one beam reads a volume truth: the flattened cells' rows (sweep-major: sweep s,
+    radial j is row s x radials + j), their two-way weights, and each sweep used with its
+    weight per elevation offset (for the coupling)."""
+
+    near: np.ndarray
+    omega: np.ndarray
+    sweeps: list[tuple[int, np.ndarray]]
+
+
+def volume_beam(
+    power: np.ndarray,
+    d_az_deg: np.ndarray,
+    d_el_deg: np.ndarray,
+    elevation_deg: float,
+    near_az: np.ndarray,
+    delta_deg: np.ndarray,
+    width_deg: float,
+    weights: np.ndarray,
+    radials: int,
+    support_db: float,
+) -> VolumeBeam:
+    """The two-way weights of a volume truth's cells around one beam.
+
+    ``weights`` (sweep x elevation offset) is each sweep's share of the truth at the beam's
+    elevation plus each offset (:func:`pasim_blocks.truth.volume.elevation_weights`). Offsets
+    where the two-way pattern, integrated over azimuth, is below ``support_db`` from its peak
+    are dropped, and a sweep with no weight left costs nothing; each remaining sweep's cells
+    are weighted by the pattern over their azimuth extent and over elevation times the sweep's
+    share, so the weights of all sweeps add up to the pattern's over the covered elevations.
+    """
+    cos_el = np.cos(np.deg2rad(elevation_deg + d_el_deg))
+    two_way = np.einsum("pea,pea->e", power, power, dtype=np.float64) * cos_el
+    inside = two_way >= two_way.max() * 10 ** (support_db / 10)
+    rows, omegas, used = [], [], []
+    for s in np.flatnonzero((weights[:, inside] > 0).any(axis=1)):
+        w = np.where(inside, weights[s], 0.0)
+        profile = azimuth_profile(power, d_el_deg, elevation_deg, w)
+        omegas.append(cell_solid_angles(profile, d_az_deg, delta_deg, width_deg))
+        rows.append(s * radials + near_az)
+        used.append((int(s), w))
+    if not rows:
+        return VolumeBeam(np.zeros(0, np.intp), np.zeros((power.shape[0], 0)), [])
+    return VolumeBeam(np.concatenate(rows), np.concatenate(omegas, axis=1), used)
 
 
 def cell_solid_angles(
@@ -77,6 +137,7 @@ def coupling_weights(
     mode: str,
     transmit_phase_deg: float,
     channels: list[tuple[int, int]],
+    weight: np.ndarray | None = None,
 ) -> np.ndarray:
     """Per channel pair and source, the coupling products integrated over each truth radial.
 
@@ -86,10 +147,14 @@ def coupling_weights(
     each radial's azimuth extent, as :func:`azimuth_profile` and :func:`cell_solid_angles`
     integrate the squared power pattern. Returns (pair, source, radial) complex (sr).
     """
-    rows = channel_rows(co, cross, mode, transmit_phase_deg, channels)
-    n_ch, n_el, n_az = rows.shape[0], rows.shape[2], rows.shape[3]
     cos_el = np.cos(np.deg2rad(elevation_deg + d_el_deg))
     step = np.deg2rad(d_el_deg[1] - d_el_deg[0])
+    if weight is not None:
+        # A volume sweep's share of the truth: only the elevation offsets it has.
+        e = np.flatnonzero(weight)
+        co, cross, cos_el = co[..., e, :], cross[..., e, :], cos_el[e] * weight[e]
+    rows = channel_rows(co, cross, mode, transmit_phase_deg, channels)
+    n_ch, n_el, n_az = rows.shape[0], rows.shape[2], rows.shape[3]
     # Every Hermitian product at once: per azimuth offset, the elevation-weighted Gram matrix
     # of the 2 n_ch coupling rows, summed in float64 (second-order cross-polar terms are
     # 1e-8 of the co-polar ones at -40 dB).
@@ -109,6 +174,42 @@ def coupling_weights(
     )
     half = flat.shape[0]
     return (both[:half] + 1j * both[half:]).reshape(len(plist), 4, centre_deg.size)
+
+
+def volume_coupling(
+    co: np.ndarray,
+    cross: np.ndarray,
+    d_az_deg: np.ndarray,
+    d_el_deg: np.ndarray,
+    elevation_deg: float,
+    centre_deg: np.ndarray,
+    width_deg: float,
+    mode: str,
+    transmit_phase_deg: float,
+    channels: list[tuple[int, int]],
+    sweeps: list[tuple[int, np.ndarray]],
+    keep: np.ndarray,
+) -> np.ndarray:
+    """:func:`coupling_weights` of a volume truth's rows (:class:`VolumeBeam`): each sweep's
+    radials ``centre_deg`` with its weight over elevation, sweep-major, the rows ``keep``."""
+    parts = [np.zeros((len(pairs(len(channels))), 4, 0), np.complex128)]
+    for _, weight in sweeps:
+        parts.append(
+            coupling_weights(
+                co,
+                cross,
+                d_az_deg,
+                d_el_deg,
+                elevation_deg,
+                centre_deg,
+                width_deg,
+                mode,
+                transmit_phase_deg,
+                channels,
+                weight,
+            )
+        )
+    return np.concatenate(parts, axis=-1)[..., keep]
 
 
 class BeamDraw(NamedTuple):

@@ -406,3 +406,18 @@ def filled(truth: xr.Dataset, name: str, echo: np.ndarray) -> np.ndarray:
         return np.full(echo.shape, FILL[name])
     values = truth[name].values.astype(np.float64)
     return np.where(np.isfinite(values), values, FILL[name])
+
+
+def flat_volume(truth: xr.Dataset) -> xr.Dataset:
+    """A volume truth's sweeps as one (radial, gate) truth, sweep-major: row s x radials + j is
+    sweep s, radial j (the rows the weather channel weights per beam and elevation)."""
+    names = [str(n) for n in truth.data_vars if str(n).startswith("volume_")]
+    n_s, n_r, n_g = truth.sizes["sweep"], truth.sizes["radial"], truth.sizes["gate"]
+    return xr.Dataset(
+        {
+            n.removeprefix("volume_"): (("radial", "gate"), truth[n].values.reshape(n_s * n_r, n_g))
+            for n in names
+        },
+        coords={"range": ("gate", truth["range"].values)},
+        attrs=dict(truth.attrs),
+    )

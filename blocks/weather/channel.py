@@ -27,8 +27,17 @@ from ..signals import (
     TRUTH,
 )
 from ..timing import fine_grid, prt_ratio, transmit_phase
-from .beams import BeamDraw, Coupling, azimuth_profile, cell_solid_angles, coupling_weights
-from .cells import TruthCells
+from ..truth.volume import elevation_weights, is_volume
+from .beams import (
+    BeamDraw,
+    Coupling,
+    azimuth_profile,
+    cell_solid_angles,
+    coupling_weights,
+    volume_beam,
+    volume_coupling,
+)
+from .cells import TruthCells, flat_volume
 from .combined import draw_combined, draw_combined_coupled, draw_tones, draw_tones_coupled
 from .dsd import DropSizes
 from .expected import expected_correlations, expected_correlations_coupled
@@ -185,6 +194,14 @@ class WeatherChannel(Block):
         doc="add the echoes of earlier pulses from beyond the unambiguous range c T / 2 "
         "(multiple trips); false: every echo first-trip",
     )
+    elevation_support_db = Param(
+        -60.0,
+        units="dB",
+        min=-200.0,
+        max=0.0,
+        doc="volume truth: elevation offsets where the two-way pattern, integrated over "
+        "azimuth, is below this level from its peak read no truth sweep",
+    )
     cross_polar_coupling = Param(
         True,
         type="bool",
@@ -258,19 +275,22 @@ class WeatherChannel(Block):
         key += (self.p["range_support_db"], self.p["drops_per_cell"])
         gamma = self.p["drop_sizes"] == "gamma" and method == "monte_carlo"
         key += (gamma, self.p["temperature_c"])
+        volume = is_volume(truth)
         if self._prepared is None or self._prepared[0] != key:
+            # A volume truth: the cells of every sweep, sweep-major (row s x radials + j).
+            seen = flat_volume(truth) if volume else truth
             ranges = range_model(
                 response,
                 gate_m,
                 lam,
-                _largest_speed(truth),
+                _largest_speed(seen),
                 floor_db=self.p["range_support_db"],
             )
             sizes = (
                 DropSizes.build(self.p["frequency_hz"], self.p["temperature_c"]) if gamma else None
             )
             cells = TruthCells(
-                truth, ranges, k0, prt, lam, pulses, method, self.p["drops_per_cell"], dtype, sizes
+                seen, ranges, k0, prt, lam, pulses, method, self.p["drops_per_cell"], dtype, sizes
             )
             self._prepared = (key, (ranges, cells))
         ranges, cells = self._prepared[1]
@@ -290,29 +310,59 @@ class WeatherChannel(Block):
             el_b = float(beams["elevation"].values[i])
             delta = circular_difference(az_truth, np.asarray(az_b), 360.0)
             near = np.flatnonzero(np.abs(delta) <= support)
-            profile = azimuth_profile(pattern["power"].values[i], d_el, el_b)
-            omega = cell_solid_angles(profile, d_az, delta[near], width_deg)
-            keep = omega.max(axis=0) >= omega.max() * 10 ** (self.p["support_db"] / 10)
+            if volume:
+                # Each sweep weighted by the two-way pattern over the elevations it stands for.
+                seen_by = volume_beam(
+                    pattern["power"].values[i],
+                    d_az,
+                    d_el,
+                    el_b,
+                    near,
+                    delta[near],
+                    width_deg,
+                    elevation_weights(
+                        truth["sweep_elevation"].values,
+                        el_b + d_el,
+                        str(truth.attrs["elevation_interpolation"]),
+                        float(truth.attrs["sweep_beamwidth_deg"]),
+                    ),
+                    az_truth.size,
+                    self.p["elevation_support_db"],
+                )
+                near_az, near, omega = near, seen_by.near, seen_by.omega
+                strongest = omega.max(axis=0, initial=0.0)
+                floor = strongest.max(initial=0.0) * 10 ** (self.p["support_db"] / 10)
+                keep = (strongest >= floor) & (strongest > 0)
+            else:
+                profile = azimuth_profile(pattern["power"].values[i], d_el, el_b)
+                omega = cell_solid_angles(profile, d_az, delta[near], width_deg)
+                keep = omega.max(axis=0) >= omega.max() * 10 ** (self.p["support_db"] / 10)
             near, omega = near[keep], omega[:, keep]
             coupling = None
             if coupled:
                 # The expected correlations need both co-polar channels whatever is drawn.
                 chans = receive_channels(mode, True)[: max(2, drawn)]
-                coupling = Coupling(
-                    len(chans),
-                    coupling_weights(
-                        pattern["co_polar"].values[i],
-                        pattern["cross_polar"].values[i],
+                co, cross = pattern["co_polar"].values[i], pattern["cross_polar"].values[i]
+                if volume:
+                    weights = volume_coupling(
+                        co,
+                        cross,
                         d_az,
                         d_el,
                         el_b,
-                        delta[near],
+                        delta[near_az],
                         width_deg,
                         mode,
                         beta,
                         chans,
-                    ),
-                )
+                        seen_by.sweeps,
+                        keep,
+                    )
+                else:
+                    weights = coupling_weights(
+                        co, cross, d_az, d_el, el_b, delta[near], width_deg, mode, beta, chans
+                    )
+                coupling = Coupling(len(chans), weights)
             terms = ranges.power.shape[0]
             alternate = mode == "ahv"
             expected = (
