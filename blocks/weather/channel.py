@@ -38,13 +38,14 @@ from .polarimetry import (
     receive_channels,
 )
 from .trips import fold_trips, overlaid_power, trip_count, trip_offsets
+from .width import WidthParams, radar_widths, scan_broadening
 
 #: Fidelity levels of the weather channel, fastest first.
 METHODS = ("expected", "combined", "covariance", "monte_carlo")
 _COVARIANCE = {"method": "covariance", "support_db": -100.0}
 
 
-class WeatherChannel(Block):
+class WeatherChannel(WidthParams, Block):
     """Echoes of the truth cells around each beam, at one of four fidelity levels.
 
     Every truth cell with echo inside the pattern grid is an independent Gaussian scatterer
@@ -86,6 +87,9 @@ class WeatherChannel(Block):
     phi_DP as in a real radar. Without those fields (pencil and ideal antennas, or
     ``cross_polar_coupling`` off) H and V are weighted by the squared co-polar power patterns
     and their cross term by sqrt(Omega_H Omega_V) (exact for proportional patterns).
+
+    Spectrum widths (``width_model``): a radar file's widths are taken as that radar's
+    measurement and corrected to what this radar would see (:mod:`pasim_blocks.weather.width`).
 
     Gates inside the blind range (one pulse length) are zero. Each beam draws from its own
     random streams (H and V apart). A truth without ZDR, RHOHV and PHIDP (single
@@ -239,6 +243,8 @@ class WeatherChannel(Block):
         # memoised.
         key: tuple[Any, ...] = (id(truth), id(response), k0, prt, lam, pulses, method, dtype)
         key += (self.p["range_support_db"], self.p["drops_per_cell"])
+        broadening = scan_broadening(beams, pattern, lam, self.p["antenna_motion"])
+        key += (round(broadening, 6),)
         if self._prepared is None or self._prepared[0] != key:
             ranges = range_model(
                 response,
@@ -248,7 +254,15 @@ class WeatherChannel(Block):
                 floor_db=self.p["range_support_db"],
             )
             cells = TruthCells(
-                truth, ranges, k0, prt, lam, pulses, method, self.p["drops_per_cell"], dtype
+                radar_widths(truth, self.p, broadening),
+                ranges,
+                k0,
+                prt,
+                lam,
+                pulses,
+                method,
+                self.p["drops_per_cell"],
+                dtype,
             )
             self._prepared = (key, (ranges, cells))
         ranges, cells = self._prepared[1]
