@@ -4,7 +4,7 @@ What each test compares against:
 
 * a radar file's widths: the truth radar's rotation broadening removed in quadrature,
   sigma_alpha = alpha lambda sqrt(ln 2) / (2 pi theta_1) (Doviak and Zrnic 1993, eq. 5.38),
-  computed here by hand from the defaults (11.4 deg/s, 0.95 deg, 10.71 cm), and reported
+  computed here by hand from the defaults (11.4 deg/s, 0.95 deg, 2.8 GHz), and reported
   zeros raised to the 0.25 m/s floor first; a synthetic scene's widths are left intrinsic;
 * a uniform field of intrinsic width 1 m/s seen by a rotating dish and by the planar array
   (electronically stepped): the width measured on the I/Q autocorrelation at lag 8 (pooled
@@ -48,7 +48,7 @@ def small_truth(instrument: str):
 
 def test_radar_truth_loses_its_rotation_broadening():
     params = {k: p.default for k, p in WeatherChannel.params.items()}
-    sigma_nexrad = scan_modulation(11.4, 0.1071, 0.95)
+    sigma_nexrad = scan_modulation(11.4, WAVELENGTH_M, 0.95)
     assert abs(sigma_nexrad - 0.170) < 0.001
     got = radar_widths(small_truth("KLBB"), params, 0.0)["WRADH"].values[0]
     want = np.sqrt(np.maximum([0.25, 0.5, 2.0], 0.25) ** 2 - sigma_nexrad**2)

@@ -13,7 +13,8 @@ The weather channel (``width_model: physical``) therefore:
    broadening in quadrature. The truth carries no scan rate, so it is a parameter; its default
    is the bundled KLBB volume's: the 0.5 deg Doppler cut turns 360 deg in 31.7 s, 11.4 deg/s
    (measured on its radial time stamps), with the WSR-88D's one-way beamwidth (0.95 deg) and
-   S-band wavelength (10.7 cm): sigma_alpha = 0.170 m/s;
+   S-band wavelength (10.7 cm): sigma_alpha = 0.170 m/s. For another radar's file, set the
+   three to that radar's;
 2. gives gates reported below ``truth_width_floor_ms`` that width before the subtraction:
    Level-II widths come in 0.5 m/s steps, so a reported 0 says the measured width was under
    0.25 m/s, and a measured width is never below the radar's own rotation broadening. The
@@ -42,12 +43,13 @@ import xarray as xr
 
 from pasim_graph import Param
 
+from ..signals import SPEED_OF_LIGHT
 from .clutter import ROTATING, one_way_beamwidth, scan_modulation_width
 
 #: Width models of the weather channel.
 WIDTH_MODELS = ("physical", "truth")
-#: Wavelength of the truth's radar (WSR-88D, S band at 2.8 GHz).
-TRUTH_WAVELENGTH_M = 0.1071
+#: Carrier frequency of the truth's radar (WSR-88D, S band: 10.71 cm).
+TRUTH_FREQUENCY_HZ = 2.8e9
 #: Defaults of the truth radar's rotation: KLBB 2016-06-01 15:00, 0.5 deg Doppler cut.
 TRUTH_SCAN_RATE_DEG_S = 11.4
 TRUTH_BEAMWIDTH_DEG = 0.95
@@ -80,6 +82,13 @@ class WidthParams:
         max=10.0,
         doc="one-way 3-dB beamwidth of the radar that measured the truth (WSR-88D)",
     )
+    truth_frequency_hz = Param(
+        TRUTH_FREQUENCY_HZ,
+        units="Hz",
+        min=1e8,
+        max=1e11,
+        doc="carrier frequency of the radar that measured the truth (WSR-88D: S band)",
+    )
     truth_width_floor_ms = Param(
         TRUTH_WIDTH_FLOOR_MS,
         units="m/s",
@@ -105,11 +114,15 @@ def measured_by_radar(truth: xr.Dataset) -> bool:
 
 
 def intrinsic_width(
-    width_ms: np.ndarray, rate_deg_s: float, beamwidth_deg: float, floor_ms: float
+    width_ms: np.ndarray,
+    rate_deg_s: float,
+    beamwidth_deg: float,
+    wavelength_m: float,
+    floor_ms: float,
 ) -> np.ndarray:
     """The truth radar's measured widths with its rotation broadening removed in quadrature,
     widths under ``floor_ms`` raised to it first (NaN stays NaN)."""
-    sigma = scan_modulation_width(rate_deg_s, TRUTH_WAVELENGTH_M, beamwidth_deg)
+    sigma = scan_modulation_width(rate_deg_s, wavelength_m, beamwidth_deg)
     measured = np.where(np.isnan(width_ms), np.nan, np.maximum(width_ms, floor_ms))
     return np.sqrt(np.maximum(measured**2 - sigma**2, 0.0))
 
@@ -150,6 +163,7 @@ def radar_widths(truth: xr.Dataset, params: dict[str, Any], broadening_ms: float
             width,
             float(params["truth_scan_rate_deg_s"]),
             float(params["truth_beamwidth_deg"]),
+            SPEED_OF_LIGHT / float(params["truth_frequency_hz"]),
             float(params["truth_width_floor_ms"]),
         )
     if broadening_ms > 0:
