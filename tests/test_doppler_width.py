@@ -21,6 +21,7 @@ from pasim_blocks.truth.nexrad import truth_dataset
 from pasim_blocks.weather.channel import WeatherChannel
 from pasim_blocks.weather.width import radar_widths
 
+from pasim_graph import Chunk
 from pasim_graph.executor import LocalExecutor, RunOptions
 from pasim_graph.graph import load
 
@@ -116,3 +117,48 @@ def test_reflectivity_noise_averages_down_at_4096_pulses():
     power never averages down: 0.39 dB. (Whole 240:330 sector: 0.132 against 0.384 dB.)"""
     assert np.std(dbzh_against_expected("physical", (240.0, 250.0), 4096)) < 0.2
     assert np.std(dbzh_against_expected("truth", (240.0, 250.0), 4096)) > 0.3
+
+
+def test_shear_across_the_beam_comes_from_the_truth_cells():
+    """The simulated radar's shear broadening is the truth's velocity gradient seen through
+    its beam: a truth with intrinsic width 0.5 m/s and an azimuthal shear of 1.5 m/s per deg
+    (uniform in range), seen by the 1-deg pencil beam held still (``antenna_motion``
+    electronic) at the expected level, returns sqrt(0.5^2 + sigma_s^2) within 10 %, with
+    sigma_s = k r sigma_theta (Doviak and Zrnic 1993, eq. 5.43 for a Gaussian two-way
+    pattern, sigma_theta = theta_1 / (4 sqrt(ln 2)) = 0.30 deg) widened by the truth's
+    0.5-deg radials (velocity constant across each: Delta^2 / 12 more angular variance).
+    Measured 0.698 m/s against 0.707 m/s (0.673 m/s without the grouping term); without the
+    shear it would be 0.5 m/s, 29 % low."""
+    from pasim_blocks.angles import circular_difference
+    from pasim_blocks.processing.pulse_pair import moments_from_correlations
+    from pasim_blocks.signals import CORRELATION_PRODUCTS
+
+    from .test_block_weather import chain_inputs, uniform_truth
+
+    beams = np.arange(4)
+    truth = uniform_truth(n_gates=20, WRADH=0.5)
+    az = truth["azimuth"].values
+    inputs = chain_inputs(truth, beams)
+    k = 1.5
+    widths = []
+    for beam in beams:
+        centre = float(inputs["beams"]["azimuth"].values[beam])
+        offset = np.clip(circular_difference(az, np.asarray(centre), 360.0), -4.0, 4.0)
+        sheared = truth.copy()
+        v = np.repeat((k * offset)[:, None], truth.sizes["gate"], 1)
+        sheared["VRADH"] = (("radial", "gate"), v.astype(np.float32))
+        block = WeatherChannel(name="weather", method="expected", antenna_motion="electronic")
+        one = {
+            **inputs,
+            "truth": sheared,
+            "beams": inputs["beams"].isel(beam=[beam]),
+            "pattern": inputs["pattern"].isel(beam=[beam]),
+        }
+        out = block.process(one, Chunk(beams=np.array([beam]), block_name="weather"))
+        c = out["echo_correlations"][0, 5:-5]
+        corr = {name: c[..., i] for i, name in enumerate(CORRELATION_PRODUCTS)}
+        prt = float(inputs["beams"]["prt"].values[0])
+        widths.append(moments_from_correlations(corr, 0.0, 0.0, prt, WAVELENGTH_M)["WRADH"])
+    sigma_theta = 1.0 / (4 * np.sqrt(np.log(2)))
+    sigma_s = k * np.sqrt(sigma_theta**2 + 0.5**2 / 12)
+    np.testing.assert_allclose(np.concatenate(widths), np.hypot(0.5, sigma_s), rtol=0.1)
