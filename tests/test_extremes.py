@@ -39,8 +39,9 @@ def test_zero_and_tiny_spectrum_width(tmp_path, width):
 
     A gate is undefined when its one echo sample falls below the noise estimate's spread:
     P(|a|^2 < 3 sigma_N) = 1 - exp(-(3 / sqrt(64)) / SNR), 0.37 % of gates at SNR 20 dB, so
-    a few of the 1,000 gates may be, never more than three times that."""
-    s = scores(tmp_path, UNIFORM, f"scene.spectrum_width_ms={width}")
+    a few of the 1,000 gates may be, never more than three times that. The widths are taken
+    as given (``width_model: truth``): by default the dish's scan modulation widens them."""
+    s = scores(tmp_path, UNIFORM, f"scene.spectrum_width_ms={width}", "weather.width_model=truth")
     n = s["DBZH"]["scored_gates"]
     assert s["DBZH"]["unestimated"] <= 3 * n * (1 - math.exp(-(3 / 8) / 100))
     assert s["DBZH"]["std"] == pytest.approx(5.57, rel=0.1)

@@ -109,7 +109,12 @@ def test_combined_draw_has_the_summed_covariance(width):
 
 
 def test_expected_level_recovers_a_uniform_truth_exactly():
-    """With no gradient, smoothing changes nothing: the expected level returns the truth."""
+    """With no gradient, smoothing changes nothing: the expected level returns the truth.
+
+    The width is the truth's widened by the dish's scan modulation, sigma_scan = alpha lambda
+    sqrt(ln 2) / (2 pi theta_1) (Doviak and Zrnic 1993, eq. 5.38; the pencil's 1-deg beam at
+    the scan's rate), added in quadrature; ``width_model: truth`` gives the truth's width.
+    """
     beams = np.arange(3)
     inputs = chain_inputs(uniform_truth(n_gates=20), beams)
     out = weather(inputs, beams, "expected")
@@ -117,7 +122,12 @@ def test_expected_level_recovers_a_uniform_truth_exactly():
     c = out["echo_correlations"][:, 3:-3]
     est = pulse_pair_from(c)
     assert np.allclose(est["VRADH"], 5.0, atol=1e-6)
-    assert np.allclose(est["WRADH"], 2.0, atol=1e-6)
+    rate = np.deg2rad(float(inputs["beams"]["scan_rate"].values[0]))
+    lam = SPEED_OF_LIGHT / 2.8e9
+    sigma_scan = rate * lam * np.sqrt(np.log(2)) / (2 * np.pi * np.deg2rad(1.0))
+    assert np.allclose(est["WRADH"], np.hypot(2.0, sigma_scan), atol=1e-4)
+    as_given = weather(inputs, beams, "expected", width_model="truth")
+    assert np.allclose(pulse_pair_from(as_given["echo_correlations"][:, 3:-3])["WRADH"], 2.0)
     assert np.allclose(est["ZDR"], 1.0, atol=1e-6)
     assert np.allclose(est["RHOHV"], 0.98, atol=1e-6)
     assert np.allclose(est["PHIDP"], 30.0, atol=1e-6)

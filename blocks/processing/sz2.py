@@ -25,8 +25,19 @@ trip's range (r < c T / 2), with x the received series:
    width and the window's sidelobes, swamps the weak trip) or its SNR is below the Doppler
    threshold. Each trip's moments go to its own range: trip 2's at r + c T / 2.
 
-Reflectivity, velocity and width are estimated (H channel); the polarimetric moments are
-not (the SZ-2 of the WSR-88D estimates them on the long-PRT surveillance scan).
+Reflectivity, velocity and width are estimated on the H channel. In dual polarisation
+(the WSR-88D's SZ-2 takes them from the long-PRT surveillance scan instead), each trip's ZDR,
+rho_hv and phi_DP are estimated as well:
+
+5. Strong trip: from the lag-1 correlations of its cohered H and V series (Melnikov and
+   Zrnic 2007, :func:`polarimetry_lag1`), which the weak trip (white once cohered to the
+   strong one) and the noise leave unbiased.
+6. Weak trip: V goes through the same cohering, notch (centred on H's strong trip) and
+   re-cohering as H. ZDR, rho_hv and phi_DP then come from the lag-0 powers and H-V cross
+   power of what the notch left (times 4), less the noise and the strong trip's expected
+   leakage. They are censored where the weak trip's velocity is, and where its SNR is below
+   ``min_weak_snr_polarimetric_db`` (15 dB). The notch leaves a quarter of the weak trip's
+   spectrum, so its estimates rest on fewer independent samples than the strong trip's.
 """
 
 from __future__ import annotations
@@ -39,7 +50,15 @@ import scipy.signal
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
-from ..signals import BEAMS, CALIBRATION, IQ, MOMENTS, NOISE_POWER, SPEED_OF_LIGHT
+from ..signals import (
+    BEAMS,
+    CALIBRATION,
+    IQ,
+    MOMENTS,
+    NOISE_POWER,
+    POLARIMETRIC_FIELDS,
+    SPEED_OF_LIGHT,
+)
 from ..timing import transmit_phase
 from .gmap import clutter_shape
 from .output import Censoring, moments_dataset, thresholds
@@ -82,14 +101,22 @@ def _leakage_table(
 
 
 def separate_trips(
-    x: np.ndarray, psi: np.ndarray, noise_w: np.ndarray, prt_s: float, wavelength_m: float
+    x: np.ndarray,
+    psi: np.ndarray,
+    noise_w: np.ndarray,
+    prt_s: float,
+    wavelength_m: float,
+    xv: np.ndarray | None = None,
+    noise_v: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """SZ-2 estimates of two overlaid trips from series ``x`` (gate x pulse) transmitted with
     phases ``psi`` (pulse, rad); ``noise_w`` per gate.
 
     Returns per gate: ``strong`` (1 or 2), and for ``1`` and ``2`` the power (W), velocity
     and width (m/s) of that trip (``P1``, ``V1``, ``W1``, ``P2``, ...), the weak trip's width
-    NaN where not estimated.
+    NaN where not estimated. With the V series ``xv`` (and its noise ``noise_v``), also each
+    trip's ZDR (dB), rho_hv and phi_DP (deg) (``ZDR1``, ``RHOHV1``, ``PHIDP1``, ...; see
+    :func:`polarimetry`).
     """
     m = x.shape[-1]
     c = [np.exp(-1j * psi), np.exp(-1j * np.roll(psi, 1))]  # cohere to trip 1, trip 2
@@ -129,7 +156,7 @@ def separate_trips(
     r1_w = lag(yw, 1)
     v_w = k_vel * np.angle(r1_w)
     first = strong == 0
-    return {
+    out = {
         "strong": strong + 1,
         "leak": leak_w,
         "P1": np.where(first, p_s, p_w),
@@ -139,6 +166,57 @@ def separate_trips(
         "W1": np.where(first, w_s, np.nan),
         "W2": np.where(first, np.nan, w_s),
     }
+    if xv is None:
+        return out
+    noise_v = np.zeros(x.shape[0]) if noise_v is None else noise_v
+    # V through the same cohering, notch (centred on H's strong trip) and re-cohering.
+    xs_v = xv * np.where(pick, c[0], c[1])
+    yw_v = np.fft.ifft(np.where(keep, np.fft.fft(xs_v * win, axis=-1), 0), axis=-1) * switch
+    total_v = np.mean(np.abs(xv) ** 2, axis=-1) - noise_v
+    p_wv = (
+        np.mean(np.abs(yw_v) ** 2, axis=-1) / mean_w2 / (1 - NOTCH_FRACTION)
+        - noise_v
+        - leak * np.maximum(total_v, 0) / (1 + leak)
+    )
+    cross = np.mean(np.conj(x) * xv, axis=-1)
+    c_w = np.mean(np.conj(yw) * yw_v, axis=-1) / mean_w2 / (1 - NOTCH_FRACTION)
+    with np.errstate(invalid="ignore"):  # gates without echo: no width, no leakage
+        c_w = c_w - leak * cross / (1 + leak)
+    weak = polarimetry_lag0(p_w, p_wv, c_w)
+    strong_pol = polarimetry_lag1(xs, xs_v)
+    for k in ("ZDR", "RHOHV", "PHIDP"):
+        out[f"{k}1"] = np.where(first, strong_pol[k], weak[k])
+        out[f"{k}2"] = np.where(first, weak[k], strong_pol[k])
+    return out
+
+
+def polarimetry_lag1(xh: np.ndarray, xv: np.ndarray) -> dict[str, np.ndarray]:
+    """ZDR (dB), rho_hv, phi_DP (deg) of the trip the series are cohered to, from lag-1
+    correlations (Melnikov and Zrnic 2007): the other trip, spread by the switching code,
+    and the noise are white and add nothing to lag 1. With R_h(1) = <h*_m h_m+1>, R_v(1),
+    C_hv = <h*_m v_m+1> and C_vh = <v*_m h_m+1>: Z_dr = |R_h(1)| / |R_v(1)|, rho_hv =
+    (|C_hv| + |C_vh|) / (2 sqrt(|R_h(1)| |R_v(1)|)), phi_DP = arg(C_hv R_h(1)* / |R_h(1)| +
+    R_v(1) C_vh* / |R_v(1)|) (each term is e^(j phi_DP) times a positive number)."""
+    r_h, r_v = lag(xh, 1), lag(xv, 1)
+    c_hv = np.mean(np.conj(xh[..., :-1]) * xv[..., 1:], axis=-1)
+    c_vh = np.mean(np.conj(xv[..., :-1]) * xh[..., 1:], axis=-1)
+    a_h, a_v = np.abs(r_h), np.abs(r_v)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        zdr = 10 * np.log10(a_h / a_v)
+        rho = (np.abs(c_hv) + np.abs(c_vh)) / (2 * np.sqrt(a_h * a_v))
+        phase = np.angle(c_hv * np.conj(r_h) / a_h + r_v * np.conj(c_vh) / a_v)
+    return {"ZDR": zdr, "RHOHV": rho, "PHIDP": np.mod(np.rad2deg(phase), 360.0)}
+
+
+def polarimetry_lag0(p_h: np.ndarray, p_v: np.ndarray, c_hv: np.ndarray) -> dict[str, np.ndarray]:
+    """ZDR (dB), rho_hv, phi_DP (deg) from noise- and leakage-corrected powers and the H-V
+    cross power (NaN where a power is not positive)."""
+    ok = (p_h > 0) & (p_v > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        zdr = np.where(ok, 10 * np.log10(p_h / p_v), np.nan)
+        rho = np.where(ok, np.abs(c_hv) / np.sqrt(p_h * p_v), np.nan)
+    phase = np.where(ok, np.mod(np.rad2deg(np.angle(c_hv)), 360.0), np.nan)
+    return {"ZDR": zdr, "RHOHV": rho, "PHIDP": phase}
 
 
 def weak_censored(est: dict[str, np.ndarray], max_ratio_db: float, margin_db: float) -> np.ndarray:
@@ -158,7 +236,10 @@ class SZ2Processor(Censoring, Block):
 
     See :mod:`pasim_blocks.processing.sz2` for the algorithm. Trip 1's moments are reported
     at the gates nearer than the unambiguous range c T / 2, trip 2's at their own range
-    beyond it (on the truth's range grid); the weak trip's width is not estimated (NaN).
+    beyond it (on the truth's range grid); the weak trip's width is not estimated (NaN). In
+    dual polarisation both trips' ZDR, rho_hv and phi_DP are estimated too; the weak trip's
+    are censored where its velocity is, or where its SNR is below
+    ``min_weak_snr_polarimetric_db``.
     """
 
     iq = Input(IQ, doc="received I/Q of a phase-coded scan")
@@ -166,7 +247,10 @@ class SZ2Processor(Censoring, Block):
     calibration = Input(CALIBRATION, doc="radar constant and gate ranges")
     beams = Input(BEAMS, doc="beam geometry, PRT and transmit phases")
     moments = Output(
-        MOMENTS, store="moments", doc="estimated moments", fields=("DBZH", "VRADH", "WRADH")
+        MOMENTS,
+        store="moments",
+        doc="estimated moments",
+        fields=("DBZH", "VRADH", "WRADH", *POLARIMETRIC_FIELDS),
     )
 
     max_power_ratio_db = Param(
@@ -184,6 +268,16 @@ class SZ2Processor(Censoring, Block):
         max=60.0,
         doc="censor the weak trip where its power over the strong trip's expected leakage "
         "through the notch is below this",
+    )
+
+    min_weak_snr_polarimetric_db = Param(
+        15.0,
+        units="dB",
+        min=-20.0,
+        max=60.0,
+        doc="censor the weak trip's ZDR, rho_hv and phi_DP where its SNR is below this (the "
+        "notch leaves a quarter of its spectrum: fewer independent samples than the strong "
+        "trip's)",
     )
 
     def setup(self) -> None:
@@ -210,15 +304,28 @@ class SZ2Processor(Censoring, Block):
         n_a = round(r_a / gate_m)
         near = np.flatnonzero(rng < r_a)
         n_b, n_g = iq.shape[:2]
-        out = {k: np.full((n_b, n_g), np.nan) for k in ("S_H", "VRADH", "WRADH")}
+        dual = (
+            bool(cal.attrs.get("dual_polarization", 1))
+            and chunk.wants(*POLARIMETRIC_FIELDS)
+            and iq.shape[-1] > 1
+        )
+        names = ("S_H", "VRADH", "WRADH", *(POLARIMETRIC_FIELDS if dual else ()))
+        out = {k: np.full((n_b, n_g), np.nan) for k in names}
+        pol_db = float(self.p["min_weak_snr_polarimetric_db"])
         snr_power = np.full((n_b, n_g), np.nan)
         ratio_db = float(self.p["max_power_ratio_db"])
         margin_db = float(self.p["min_weak_to_leakage_db"])
         noise_h = np.array(noise[..., 0], dtype=np.float64)
         for i in range(n_b):
             x = iq[i, near, :, 0].astype(np.complex128)
-            est = separate_trips(x, psi[i], noise[i, near, 0], prt, lam)
+            xv = iq[i, near, :, 1].astype(np.complex128) if dual else None
+            est = separate_trips(x, psi[i], noise[i, near, 0], prt, lam, xv, noise[i, near, 1])
             too_weak = weak_censored(est, ratio_db, margin_db)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                weak_snr = 10 * np.log10(
+                    np.where(est["strong"] == 1, est["P2"], est["P1"]) / noise[i, near, 0]
+                )
+            pol_censored = too_weak | ~(weak_snr >= pol_db)
             for trip, gates in ((1, near), (2, near + n_a)):
                 ok = gates < n_g
                 g = gates[ok]
@@ -229,7 +336,13 @@ class SZ2Processor(Censoring, Block):
                 out["VRADH"][i, g] = v
                 out["WRADH"][i, g] = est[f"W{trip}"][ok]
                 snr_power[i, g] = np.where(weak & too_weak[ok], np.nan, p)
+                for k in POLARIMETRIC_FIELDS if dual else ():
+                    out[k][i, g] = np.where(weak & pol_censored[ok], np.nan, est[f"{k}{trip}"][ok])
                 noise_h[i, g] = noise[i, near[ok], 0]
+        beta = float(cal.attrs.get("transmit_differential_phase_deg", 0.0))
+        if dual and beta:
+            # The system's differential phase on transmit is known: calibrated out.
+            out["PHIDP"] = np.mod(out["PHIDP"] - beta, 360.0)
         # A censored weak trip keeps its power (reflectivity) only where it is not swamped.
         out["S_H"] = np.where(np.isfinite(snr_power) | ~np.isfinite(out["S_H"]), out["S_H"], np.nan)
         ds = moments_dataset(

@@ -48,13 +48,14 @@ from .polarimetry import (
     receive_channels,
 )
 from .trips import fold_trips, overlaid_power, trip_count, trip_offsets
+from .width import WidthParams, radar_widths, scan_broadening
 
 #: Fidelity levels of the weather channel, fastest first.
 METHODS = ("expected", "combined", "covariance", "monte_carlo")
 _COVARIANCE = {"method": "covariance", "support_db": -100.0}
 
 
-class WeatherChannel(Block):
+class WeatherChannel(WidthParams, Block):
     """Echoes of the truth cells around each beam, at one of four fidelity levels.
 
     Every truth cell with echo inside the pattern grid is an independent Gaussian scatterer
@@ -96,6 +97,9 @@ class WeatherChannel(Block):
     phi_DP as in a real radar. Without those fields (pencil and ideal antennas, or
     ``cross_polar_coupling`` off) H and V are weighted by the squared co-polar power patterns
     and their cross term by sqrt(Omega_H Omega_V) (exact for proportional patterns).
+
+    Spectrum widths (``width_model``): a radar file's widths are taken as that radar's
+    measurement and corrected to what this radar would see (:mod:`pasim_blocks.weather.width`).
 
     Gates inside the blind range (one pulse length) are zero. Each beam draws from its own
     random streams (H and V apart). A truth without ZDR, RHOHV and PHIDP (single
@@ -276,6 +280,8 @@ class WeatherChannel(Block):
         gamma = self.p["drop_sizes"] == "gamma" and method == "monte_carlo"
         key += (gamma, self.p["temperature_c"])
         volume = is_volume(truth)
+        broadening = scan_broadening(beams, pattern, lam, self.p["antenna_motion"])
+        key += (round(broadening, 6),)
         if self._prepared is None or self._prepared[0] != key:
             # A volume truth: the cells of every sweep, sweep-major (row s x radials + j).
             seen = flat_volume(truth) if volume else truth
@@ -290,7 +296,16 @@ class WeatherChannel(Block):
                 DropSizes.build(self.p["frequency_hz"], self.p["temperature_c"]) if gamma else None
             )
             cells = TruthCells(
-                seen, ranges, k0, prt, lam, pulses, method, self.p["drops_per_cell"], dtype, sizes
+                radar_widths(seen, self.p, broadening),
+                ranges,
+                k0,
+                prt,
+                lam,
+                pulses,
+                method,
+                self.p["drops_per_cell"],
+                dtype,
+                sizes,
             )
             self._prepared = (key, (ranges, cells))
         ranges, cells = self._prepared[1]
