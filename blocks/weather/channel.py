@@ -39,6 +39,7 @@ from .beams import (
 )
 from .cells import TruthCells, flat_volume
 from .combined import draw_combined, draw_combined_coupled, draw_tones, draw_tones_coupled
+from .coverage import check_coverage
 from .dsd import DropSizes
 from .expected import expected_correlations, expected_correlations_coupled
 from .fasttime import range_correlate, range_model
@@ -47,6 +48,7 @@ from .polarimetry import (
     MODES,
     receive_channels,
 )
+from .power import transmit_power
 from .trips import fold_trips, overlaid_power, trip_count, trip_offsets
 from .width import WidthParams, radar_widths, scan_broadening
 
@@ -314,7 +316,7 @@ class WeatherChannel(WidthParams, Block):
         d_el = pattern["elevation_offset_deg"].values
         support = max(abs(d_az[0]), abs(d_az[-1])) + width_deg / 2
         cdtype = np.complex64 if dtype == np.float32 else np.complex128
-        _check_coverage(az_truth, width_deg, beams["azimuth"].values, support - width_deg / 2)
+        check_coverage(az_truth, width_deg, beams["azimuth"].values, support - width_deg / 2)
         # Stored polarisation-major, handed on as a (beam, range, pulse, polarization) view:
         # each channel's series stay contiguous for the draws and for the blocks downstream.
         iq = np.zeros((n_b, 2, n_g, 0 if method == "expected" else pulses), cdtype)
@@ -543,67 +545,8 @@ def _largest_speed(truth: xr.Dataset) -> float:
     return float(v.max()) if v.size else 0.0
 
 
-def _check_coverage(
-    az_truth: np.ndarray, width_deg: float, az_beams: np.ndarray, support_deg: float
-) -> None:
-    """Refuse beams whose pattern reaches beyond a truth read for a sector only.
-
-    A truth read for a sector (``truth.azimuth_start_deg``) ends somewhere; a beam whose
-    pattern grid reaches past that end would silently miss the echo there.
-    """
-    az = np.sort(np.mod(az_truth, 360.0))
-    if az.size < 2:
-        return
-    gaps = np.diff(np.concatenate([az, [az[0] + 360.0]]))
-    k = int(np.argmax(gaps))
-    if gaps[k] <= 2.5 * width_deg:
-        return  # the whole circle
-    start = az[(k + 1) % az.size] - width_deg / 2
-    extent = 360.0 - gaps[k] + width_deg
-    off = np.mod(az_beams - support_deg - start, 360.0)
-    bad = off + 2 * support_deg > extent + 1e-6
-    if bad.any():
-        b = float(az_beams[np.flatnonzero(bad)[0]])
-        raise ValueError(
-            f"the truth covers azimuth {start % 360:.1f} to {(start + extent) % 360:.1f} deg, but "
-            f"the beam at {b:.1f} deg has a pattern support of +-{support_deg:g} deg; widen the "
-            "truth's margin_deg (or read the whole sweep)"
-        )
-
-
 def _beta_factors(beta_deg: float) -> np.ndarray:
     """Factors on the correlation products when the V port's echo is multiplied by e^(j beta)."""
     t = np.exp(1j * np.deg2rad(beta_deg))
     factors = {"R0_HV": t, "R1_HV": t, "R1_VH": np.conj(t)}
     return np.array([factors.get(k, 1.0) for k in CORRELATION_PRODUCTS])
-
-
-def transmit_power(peak_power_w: float, response: xr.Dataset) -> dict[str, Any]:
-    """The transmit power convention the run used, for the calibration's attributes.
-
-    Without a ``transmitter.power_divider`` upstream ``peak_power_w`` is each port's peak
-    power; with one it is the transmitter's total and each port radiates its share. Either
-    way the power radiated at each port is ``peak_power_w`` times the radiated pulse's peak
-    |envelope|^2 (the amplifier's output, divided).
-    """
-    per_port = peak_power_w * float(np.max(np.abs(response["transmitted"].values) ** 2))
-    ports = response.attrs.get("power_divider_ports")
-    if ports is None:
-        text = f"per port (peak_power_w {_watts(peak_power_w)} at each port, no divider"
-    else:
-        loss = float(response.attrs.get("power_divider_loss_db", 0.0))
-        text = (
-            f"divided total (peak_power_w {_watts(peak_power_w)} split {int(ports)} ways "
-            f"with {loss:g} dB loss"
-        )
-    return {
-        "transmit_power": f"{text}; radiated peak {_watts(per_port)} per port)",
-        "transmit_power_per_port_w": per_port,
-    }
-
-
-def _watts(w: float) -> str:
-    for scale, unit in ((1e6, "MW"), (1e3, "kW")):
-        if w >= scale:
-            return f"{w / scale:.4g} {unit}"
-    return f"{w:.4g} W"
