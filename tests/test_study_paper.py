@@ -10,7 +10,9 @@ radar constant per beam flattens the face's; fewer phase-shifter bits raise the 
 
 from __future__ import annotations
 
+import itertools
 import json
+import math
 import os
 from pathlib import Path
 
@@ -93,3 +95,45 @@ def test_the_bits_report_says_where_the_sidelobes_stop_mattering(bits):
     assert "Peak sidelobe: falls from" in html
     assert "DBZH, sidelobe part of the budget" in html
     assert "matter against the other parts" in html
+
+
+#: The paper's order of the four designs (its Tables 7-8): the generic radar and the 10 m
+#: CPPAR together, then the ATD, then the 2 m CPPAR.
+PAPER_GROUPS = (("generic", "cppar10"), ("atd",), ("cppar2",))
+
+
+@pytest.mark.parametrize("field", ["DBZH", "ZDR", "RHOHV", "PHIDP"])
+@pytest.mark.parametrize("gates", ["own", "common"])
+@pytest.mark.parametrize("against", ["raw", "reference"])
+def test_the_study_ranks_the_designs_as_the_paper_does(paper, field, gates, against):
+    """Paper Tables 7-8: generic and 10 m CPPAR within 20 % of each other, then the ATD, then
+    the 2 m CPPAR, each group's 95 % interval clear of the next one's (across the study's
+    seeds), on each system's own scored gates and on the gates common to all four."""
+
+    def stat(system: str) -> dict:
+        s = paper["scores"][system]["convective"]["-"][field]
+        s = s if gates == "own" else s["common"]
+        return s if against == "raw" else s["reference"]
+
+    first = [stat(s)["std"] for s in PAPER_GROUPS[0]]
+    assert max(first) <= 1.2 * min(first)
+    for lower, upper in itertools.pairwise(PAPER_GROUPS):
+        top = max(stat(s)["std_ci"][1] for s in lower)
+        bottom = min(stat(s)["std_ci"][0] for s in upper)
+        assert top < bottom, (lower, upper, top, bottom)
+
+
+def test_the_beam_not_the_estimator_noise_separates_the_designs(paper):
+    """The budget: the designs' estimator noise (estimate against their own noise-free level)
+    is alike, while the beam's parts (main lobe and sidelobes) grow from the generic radar to
+    the 2 m CPPAR and make the difference in total error."""
+    budget = {
+        s: paper["scores"][s]["convective"]["-"]["DBZH"]["budget"]
+        for s in ("generic", "atd", "cppar2")
+    }
+    noise = [b["estimator_noise"] for b in budget.values()]
+    beam = [math.hypot(b["main_lobe"], b["sidelobes"]) for b in budget.values()]
+    total = [b["total"] for b in budget.values()]
+    assert total == sorted(total)
+    assert beam == sorted(beam)
+    assert beam[-1] - beam[0] > 2 * (max(noise) - min(noise))
