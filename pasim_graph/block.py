@@ -193,6 +193,15 @@ class Block:
         """Number of beams in the scan (beam sources only)."""
         raise NotImplementedError
 
+    @classmethod
+    def sweeps(cls, params: dict[str, Any]) -> list[dict[str, Any]]:
+        """The sweeps of a scan (beam sources only): one dict of this block's parameter
+        overrides per sweep, read from the class and the graph's ``params`` (defaults not
+        filled in). The executor runs the graph once per sweep, the beam source built with
+        that sweep's overrides, and stores each as its own FM-301 ``sweep_N`` group. The
+        default is one sweep with the graph's parameters."""
+        return [{}]
+
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         raise NotImplementedError
 
