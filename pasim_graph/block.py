@@ -39,6 +39,8 @@ class Chunk:
     options : mapping
         Run options a block may read (``save_iq``; ``fields``: the output fields asked for,
         None for all; see :meth:`wants`).
+    sweep : int
+        Index of the sweep of a volume the beams belong to (0 for a one-sweep scan).
     """
 
     beams: np.ndarray
@@ -46,9 +48,11 @@ class Chunk:
     block_name: str = ""
     resource: Any = None
     options: Mapping[str, Any] = field(default_factory=dict)
+    sweep: int = 0
 
     def rng(self, beam: int, *stream: int) -> np.random.Generator:
-        """Random generator for one beam, from the run seed, the block name and the beam index.
+        """Random generator for one beam, from the run seed, the block name, the sweep and the
+        beam index.
 
         Streams are per beam so that the numbers do not depend on how beams are chunked or on
         which worker runs them. Extra integers select independent sub-streams, so that a part
@@ -56,7 +60,10 @@ class Chunk:
         draws H from ``rng(beam)`` and V from ``rng(beam, 1)`` gives the same H when it is
         asked for H only).
         """
-        key = zlib.crc32(self.block_name.encode())
+        # Each sweep of a volume draws its own streams (beam indices restart at 0 in each);
+        # the first sweep's are those of a one-sweep scan.
+        name = self.block_name if not self.sweep else f"{self.block_name}#sweep{self.sweep}"
+        key = zlib.crc32(name.encode())
         entropy = [self.seed, key, int(beam), *(int(s) for s in stream)]
         return np.random.default_rng(np.random.SeedSequence(entropy))
 

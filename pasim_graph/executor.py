@@ -142,6 +142,8 @@ class LocalExecutor:
     def __init__(self, graph: Graph, options: RunOptions | None = None):
         self.options = options or RunOptions()
         self.plan = plan(graph, self.options)
+        #: Index of the sweep this executor runs (keys the random streams of its beams).
+        self.sweep = 0
         #: Seconds each block spent in process() in this process, summed over chunks.
         self.block_seconds: dict[str, float] = {}
         self._lock = threading.Lock()
@@ -174,6 +176,7 @@ class LocalExecutor:
             block_name=name,
             resource=p.resources.get(name),
             options={"save_iq": self.options.save_iq, "fields": self.options.fields},
+            sweep=self.sweep,
         )
         t0 = time.perf_counter()
         try:

@@ -108,7 +108,7 @@ def volume_scores(tree: xr.DataTree) -> dict[str, Any]:
     out: dict[str, Any] = {"sweeps": {}}
     for name, ds in sweeps.items():
         out["sweeps"][name] = {
-            "elevation_deg": _fixed_angle(ds),
+            "fixed_angle_deg": _fixed_angle(ds),  # elevation of a PPI, azimuth of an RHI
             "sweep_mode": str(ds["sweep_mode"].values) if "sweep_mode" in ds else "",
             "beams": int(ds.sizes.get(_beam_dim(ds), 0)),
             "time_on_target_s": time_on_target(ds),
@@ -177,7 +177,7 @@ def print_volume(volume: dict[str, Any], stream: Any) -> None:
             print(f"time on target: {volume['time_on_target_s']:.3f} s", file=stream)
         return
     for name, s in sweeps.items():
-        angle = s["elevation_deg"]
+        angle = s["fixed_angle_deg"]
         at = f" at {angle:g} deg" if angle is not None else ""
         print(
             f"{name} ({s['sweep_mode'] or 'sweep'}{at}, {s['beams']} beams, time on target "

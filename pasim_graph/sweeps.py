@@ -33,10 +33,11 @@ def sweep_overrides(graph: Graph) -> list[dict[str, Any]]:
     return overrides or [{}]
 
 
-def for_sweep(base: LocalExecutor, overrides: dict[str, Any]) -> LocalExecutor:
-    """``base`` with its beam source rebuilt from ``overrides``: the other blocks, the loaded
-    resources (one dict, shared) and the timings are the same objects."""
-    if not overrides:
+def for_sweep(base: LocalExecutor, overrides: dict[str, Any], index: int = 0) -> LocalExecutor:
+    """``base`` with its beam source rebuilt from ``overrides`` for the sweep at ``index``
+    (which keys its random streams): the other blocks, the loaded resources (one dict,
+    shared) and the timings are the same objects."""
+    if not overrides and index == base.sweep:
         return base
     graph = base.plan.graph
     name = beam_source(graph)
@@ -48,13 +49,14 @@ def for_sweep(base: LocalExecutor, overrides: dict[str, Any]) -> LocalExecutor:
         raise BlockError(name, cls.type_name, None, exc) from exc
     out = copy.copy(base)
     out.plan = replace(base.plan, blocks={**base.plan.blocks, name: block}, beam_count=n_beams)
+    out.sweep = index
     return out
 
 
 def sweep_executors(graph: Graph, options: RunOptions) -> list[LocalExecutor]:
     """One executor per sweep of the graph's scan, sharing everything but the beam source."""
     base = LocalExecutor(graph, options)
-    return [for_sweep(base, o) for o in sweep_overrides(graph)]
+    return [for_sweep(base, o, k) for k, o in enumerate(sweep_overrides(graph))]
 
 
 def sweep_group(index: int) -> str:
