@@ -1,0 +1,148 @@
+"""A run of a scan with several sweeps: one FM-301 store with sweep_0 ... sweep_N, each with its
+own PRT and pulses (its I/Q cube its own shape), time on target stored and reported, scores per
+sweep and pooled (checked against a pooling worked out here), the same numbers whatever the
+chunking, and resume repairing a damaged chunk of a later sweep."""
+
+from __future__ import annotations
+
+import shutil
+import warnings
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from pasim_graph import Chunk
+from pasim_graph.scores import TIME_ON_TARGET, sweep_names, volume_scores
+
+from .conftest import pasim_out, run_cli
+
+CUTS = "0.5 0.0031 16; 1.5 0.001 32; 3.4 0.0012 24 243:245"
+#: (elevation, PRT, pulses, beams) of each cut over the sector 240:246.
+EXPECTED = [(0.5, 0.0031, 16, 6), (1.5, 0.001, 32, 6), (3.4, 0.0012, 24, 2)]
+ARGS = [
+    "run",
+    "graphs/generic_vcp212.yaml",
+    "--sector",
+    "240:246",
+    "--set",
+    "scan.preset=''",
+    "--set",
+    f"scan.cuts={CUTS}",
+    "--save-iq",
+]
+
+
+def _open(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return xr.open_datatree(path, engine="zarr")
+
+
+@pytest.fixture(scope="module")
+def volume(tmp_path_factory):
+    out = tmp_path_factory.mktemp("volume") / "store"
+    done = run_cli(*ARGS, "--chunk", "4", "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    return out, done.stdout
+
+
+def test_every_cut_is_a_sweep_with_its_own_prt_and_pulses(volume):
+    tree = _open(volume[0])
+    assert sweep_names(tree) == ["sweep_0", "sweep_1", "sweep_2"]
+    for k, (el, prt, pulses, beams) in enumerate(EXPECTED):
+        ds = tree[f"sweep_{k}"].to_dataset()
+        assert int(ds["sweep_number"]) == k
+        assert ds.sizes["azimuth"] == beams
+        np.testing.assert_allclose(ds["elevation"].values, el)
+        np.testing.assert_allclose(ds["prt"].values, prt)
+        assert int(ds["pulses"]) == pulses
+        iq = next(v for n, v in ds.data_vars.items() if "pulse" in v.dims)
+        assert iq.sizes["pulse"] == pulses, iq.name
+    # Sweeps follow each other: each starts after the one before ends.
+    starts = [tree[n]["time"].values.min() for n in sweep_names(tree)]
+    assert starts == sorted(starts) and len(set(starts)) == 3
+
+
+def test_time_on_target_is_the_sum_of_the_dwells(volume):
+    """Stored on the root and each sweep, and printed: the sum over beams of pulses x PRT
+    (worked out here from the cuts)."""
+    path, stdout = volume
+    tree = _open(path)
+    each = [beams * pulses * prt for _, prt, pulses, beams in EXPECTED]
+    for k, t in enumerate(each):
+        assert tree[f"sweep_{k}"].attrs[TIME_ON_TARGET] == pytest.approx(t)
+    assert tree.attrs[TIME_ON_TARGET] == pytest.approx(sum(each))
+    assert f"volume (3 sweeps, time on target {sum(each):.3f} s)" in stdout
+    assert f"sweep_2 (azimuth_surveillance at 3.4 deg, 2 beams, time on target {each[2]:.3f}" in (
+        stdout
+    )
+
+
+def test_volume_scores_pool_every_sweeps_gates(volume):
+    """The volume's DBZH bias and std are those of every sweep's DBZH errors put together
+    (numpy here), and each sweep's are its own."""
+    tree = _open(volume[0])
+    scores = volume_scores(tree)
+    errors = [tree[n]["error_DBZH"].values.ravel() for n in sweep_names(tree)]
+    errors = [e[np.isfinite(e)] for e in errors]
+    pooled = np.concatenate(errors)
+    assert scores["scores"]["DBZH"]["count"] == pooled.size
+    assert scores["scores"]["DBZH"]["bias"] == pytest.approx(pooled.mean())
+    assert scores["scores"]["DBZH"]["std"] == pytest.approx(pooled.std(ddof=1))
+    for n, e in zip(sweep_names(tree), errors, strict=True):
+        assert scores["sweeps"][n]["scores"]["DBZH"]["bias"] == pytest.approx(e.mean())
+
+
+def test_score_command_reports_each_sweep_and_the_volume(volume, capsys):
+    import json
+
+    code, out, err = pasim_out(capsys, "score", str(volume[0]))
+    assert code == 0, err
+    assert out.count("moment ") == 4  # three sweeps and the volume
+    code, out, err = pasim_out(capsys, "score", str(volume[0]), "--json")
+    data = json.loads(out)
+    assert set(data["sweeps"]) == {"sweep_0", "sweep_1", "sweep_2"}
+    assert data["time_on_target_s"] == pytest.approx(sum(b * m * t for _, t, m, b in EXPECTED))
+
+
+def test_sweeps_draw_their_own_random_streams():
+    """Beam indices restart in each sweep: the sweep keys the streams, and the first sweep's
+    are a one-sweep scan's."""
+    one = Chunk(beams=np.arange(1), block_name="weather")
+    first = Chunk(beams=np.arange(1), block_name="weather", sweep=0)
+    second = Chunk(beams=np.arange(1), block_name="weather", sweep=1)
+    assert one.rng(3).random() == first.rng(3).random()
+    assert second.rng(3).random() != first.rng(3).random()
+    assert second.rng(3).random() != first.rng(3, 1).random()
+
+
+def test_chunking_does_not_change_any_sweep(volume, tmp_path, capsys):
+    other = tmp_path / "store"
+    code, _, err = pasim_out(capsys, *ARGS, "--chunk", "3", "--out", str(other))
+    assert code == 0, err
+    a, b = _open(volume[0]), _open(other)
+    for name in sweep_names(a):
+        x, y = a[name].to_dataset(), b[name].to_dataset()
+        for var in x.data_vars:
+            np.testing.assert_array_equal(x[var].values, y[var].values, err_msg=f"{name}/{var}")
+
+
+def test_resume_rewrites_a_damaged_chunk_of_a_later_sweep(volume, tmp_path, capsys):
+    copy = tmp_path / "store"
+    shutil.copytree(volume[0], copy)
+    chunk = copy / "sweep_1" / "DBZH" / "c" / "1" / "0"
+    assert chunk.is_file()
+    chunk.unlink()
+    code, _, err = pasim_out(capsys, "score", str(copy))
+    assert code == 2 and "sweep_1/DBZH" in err
+    code, _, err = pasim_out(capsys, *ARGS, "--chunk", "4", "--out", str(copy), "--resume")
+    assert code == 0, err
+    assert "rewriting 1 damaged chunk(s)" in err and "sweep 1, beams 4-5" in err
+    assert "1 of 5 chunks" in err
+    np.testing.assert_array_equal(
+        _open(copy)["sweep_1"]["DBZH"].values, _open(volume[0])["sweep_1"]["DBZH"].values
+    )
+    # A finished store is left as it is.
+    code, _, err = pasim_out(capsys, *ARGS, "--chunk", "4", "--out", str(copy), "--resume")
+    assert code == 0 and "already complete" in err
