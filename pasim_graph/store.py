@@ -503,8 +503,9 @@ class IncompleteStoreError(RuntimeError):
     pass
 
 
-def open_sweep(path: str | Path) -> tuple[xr.Dataset, dict[str, Any]]:
-    """The first sweep of a finished run and its root attributes.
+def open_sweep(path: str | Path, index: int = 0) -> tuple[xr.Dataset, dict[str, Any]]:
+    """A sweep of a finished run (``sweep_<index>``, the first by default) and its root
+    attributes.
 
     Raises :class:`NotAStoreError` naming the path when it is missing, not a store, or a run
     that did not finish, and :class:`DamagedStoreError` (a kind of it) naming each damaged
@@ -525,7 +526,11 @@ def open_sweep(path: str | Path) -> tuple[xr.Dataset, dict[str, Any]]:
         raise NotAStoreError(f"{path}: not a PASIM-graph store ({exc})") from None
     if "sweep_0" not in tree.children:
         raise NotAStoreError(f"{path}: no sweep_0 group; is this a PASIM-graph store?")
-    return tree["sweep_0"].to_dataset(), {str(k): v for k, v in tree.attrs.items()}
+    group = f"sweep_{index}"
+    if group not in tree.children:
+        held = sorted(str(n) for n in tree.children if str(n).startswith("sweep_"))
+        raise NotAStoreError(f"{path}: no sweep {index}; it holds {', '.join(held)}")
+    return tree[group].to_dataset(), {str(k): v for k, v in tree.attrs.items()}
 
 
 def open_volume(path: str | Path) -> xr.DataTree:

@@ -100,3 +100,13 @@ def test_bad_volume_exits_2_before_work(capsys, tmp_path, setting, named):
     )
     assert code == 2 and named in err and "Traceback" not in err
     assert not (tmp_path / "s").exists()
+
+
+@pytest.mark.parametrize("elevation", [-1.0, 0.5, 10.0, 45.0])
+def test_ppi_scans_at_any_elevation(elevation):
+    from pasim_blocks.scans.ppi import PPISector
+
+    block = PPISector(name="scan", elevation_deg=elevation)
+    beams = block.process({}, Chunk(beams=np.arange(3)))["beams"]
+    assert np.all(beams["elevation"].values == elevation)
+    assert float(beams["sweep_fixed_angle"]) == elevation

@@ -89,3 +89,27 @@ def site_and_start(inputs: dict[str, Any], offset_s: float) -> tuple[np.datetime
     """The sweep's start (the truth's start plus ``offset_s``) and the site."""
     start, site = truth_context(inputs.get("truth"))
     return start + seconds(offset_s), site
+
+
+#: Earth's mean radius (m) and the effective-radius factor of standard refraction.
+EARTH_RADIUS_M = 6371000.0
+FOUR_THIRDS = 4.0 / 3.0
+
+
+def beam_height_m(range_m: np.ndarray, elevation_deg: np.ndarray) -> np.ndarray:
+    """Height of the beam centre above the radar (m) under standard refraction: the 4/3-earth
+    model (Doviak and Zrnic 1993, eq. 2.28b), h = sqrt(r^2 + (k a)^2 + 2 r k a sin(el)) - k a.
+    """
+    ka = FOUR_THIRDS * EARTH_RADIUS_M
+    r = np.asarray(range_m, dtype=np.float64)
+    sin = np.sin(np.deg2rad(np.asarray(elevation_deg, dtype=np.float64)))
+    return np.sqrt(r**2 + ka**2 + 2.0 * r * ka * sin) - ka
+
+
+def ground_range_m(range_m: np.ndarray, elevation_deg: np.ndarray) -> np.ndarray:
+    """Distance along the ground to below the beam centre (m), 4/3-earth model (Doviak and
+    Zrnic 1993, eq. 2.28c): s = k a asin(r cos(el) / (k a + h))."""
+    ka = FOUR_THIRDS * EARTH_RADIUS_M
+    r = np.asarray(range_m, dtype=np.float64)
+    cos = np.cos(np.deg2rad(np.asarray(elevation_deg, dtype=np.float64)))
+    return ka * np.arcsin(r * cos / (ka + beam_height_m(r, elevation_deg)))
