@@ -119,10 +119,11 @@ def cmd_run(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
             progress=args.progress or sys.stderr.isatty(),
         )
-        n = executor.local.plan.beam_count
+        n = sum(s.plan.beam_count for s in executor.sweeps)
+        sweeps = f" in {len(executor.sweeps)} sweeps" if len(executor.sweeps) > 1 else ""
         print(
-            f"running {args.graph}: {n} beams in chunks of {executor.options.chunk_beams}, "
-            f"seed {args.seed}",
+            f"running {args.graph}: {n} beams{sweeps} in chunks of "
+            f"{executor.options.chunk_beams}, seed {args.seed}",
             file=sys.stderr,
         )
         with stop_on_signals():

@@ -39,7 +39,7 @@ def beam_dataset(
     time: np.ndarray,
     prt: np.ndarray,
     pulses: int,
-    scan_rate: np.ndarray,
+    scan_rate: np.ndarray | None,
     sweep_mode: str,
     fixed_angle: float,
     start: np.datetime64,
@@ -60,11 +60,6 @@ def beam_dataset(
                 {"units": "seconds", "long_name": "pulse repetition time"},
             ),
             "pulses": ((), int(pulses), {"long_name": "pulses per dwell"}),
-            "scan_rate": (
-                "beam",
-                np.asarray(scan_rate, np.float64),
-                {"units": "degrees/s", "long_name": rate_name},
-            ),
             # Volume metadata FM-301 asks for at the root (the store moves it there).
             "time_coverage_start": ((), iso(start)),
             "time_coverage_end": ((), iso(end)),
@@ -79,6 +74,12 @@ def beam_dataset(
             **{k: ((), v) for k, v in site.items()},
         },
     )
+    if scan_rate is not None:  # an electronically steered beam list does not move
+        ds["scan_rate"] = (
+            "beam",
+            np.asarray(scan_rate, np.float64),
+            {"units": "degrees/s", "long_name": rate_name},
+        )
     ds["latitude"].attrs = dict(cf.latitude)
     ds["longitude"].attrs = dict(cf.longitude)
     ds["altitude"].attrs = dict(cf.altitude)
