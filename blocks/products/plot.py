@@ -312,9 +312,9 @@ def png_bytes(fig: Any, dpi: int = 90) -> bytes:
 
 def title_of(path: str | Path, attrs: dict[str, Any], sweep: xr.Dataset) -> str:
     if is_rhi(sweep):
-        el = np.asarray(sweep["elevation"].values)
-        az = float(np.asarray(sweep["azimuth"].values)[0])
-        sector = f"RHI at azimuth {az:.1f} deg, elevation {el.min():.1f}-{el.max():.1f} deg, "
+        steps = np.asarray(sweep["elevation"].values)
+        at = float(np.asarray(sweep["azimuth"].values)[0])
+        sector = f"RHI at azimuth {at:.1f} deg, elevation {steps.min():.1f}-{steps.max():.1f} deg, "
         graph = attrs.get("graph_file", "")
         return f"{Path(path).name}: {graph}, {sector}seed {attrs.get('seed', '?')}"
     az = np.asarray(sweep["azimuth"].values) if "azimuth" in sweep else np.array([])
