@@ -130,3 +130,24 @@ def test_pattern_scan_lists_every_beam_of_every_sweep():
     beams = scan_beams(load(GRAPHS / "atd_schedule.yaml"))
     order = np.concatenate(schedule.sweeps)
     np.testing.assert_allclose([a for a, _ in beams], schedule.azimuth[order])
+
+
+@pytest.mark.parametrize(
+    "scan, cut, inside",
+    [
+        ((240.0, 330.0), "250:260", True),
+        ((240.0, 330.0), "240:330", True),
+        ((240.0, 330.0), "200:260", False),
+        ((240.0, 330.0), "320:340", False),
+        ((350.0, 20.0), "355:10", True),
+        ((350.0, 20.0), "340:10", False),
+        ((350.0, 20.0), "0:360", False),
+        ((0.0, 360.0), "355:10", True),
+    ],
+)
+def test_a_cuts_own_sector_must_lie_in_the_scans(scan, cut, inside):
+    """The truth is read for the scan's sector: a cut's sector outside it is refused."""
+    params = {"preset": "", "azimuth_start_deg": scan[0], "azimuth_stop_deg": scan[1]}
+    problems = VolumeScan.check_config({**params, "cuts": f"0.5 0.003 16 {cut}"}, set())
+    assert (problems == []) == inside, problems
+    assert all("outside the scan's sector" in p[1] for p in problems)

@@ -69,10 +69,31 @@ class VolumeScan(PPISector):
         cuts, problems = cls.volume_cuts(params)
         if problems:
             return problems
+
+        def get(name: str) -> Any:
+            return params.get(name, cls.params[name].default)
+
+        start, stop = get("azimuth_start_deg"), get("azimuth_stop_deg")
+        span = (stop - start) % 360.0 or 360.0
         out = []
-        for cut in cuts:
+        for n, cut in enumerate(cuts, start=1):
             sweep = {**params, **cls.cut_params(params, cut)}
             out += super().check_config(sweep, connected)
+            if cut.sector is None or span == 360.0:
+                continue
+            # The truth is read for the scan's sector (plus a margin): a cut's own sector must
+            # lie inside it.
+            offset = (cut.sector[0] - start) % 360.0
+            width = (cut.sector[1] - cut.sector[0]) % 360.0 or 360.0
+            if offset + width > span + 1e-9:
+                out.append(
+                    (
+                        "parameter 'cuts'",
+                        f"cut {n}'s sector {cut.sector[0]:g}:{cut.sector[1]:g} is outside the "
+                        f"scan's sector {start:g} to {stop:g} deg (the truth is read for that "
+                        "sector): widen azimuth_start_deg/azimuth_stop_deg or the cut's sector",
+                    )
+                )
         return sorted(set(out))
 
     @classmethod
