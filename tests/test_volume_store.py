@@ -170,3 +170,27 @@ def test_vcp212_over_the_bundled_volume_writes_and_scores_every_cut(tmp_path):
     data = json.loads(run_cli("score", str(out), "--json").stdout)
     assert len(data["sweeps"]) == 17
     assert all(s["scores"]["DBZH"]["count"] > 1000 for s in data["sweeps"].values())
+
+
+def test_resume_runs_only_the_chunks_not_flagged_done_in_any_sweep(volume, tmp_path, capsys):
+    """A run stopped with sweep 0 written and sweep 2 not: its done flags say so (the last
+    chunk of each sweep cleared here, as a kill would leave them); --resume runs those two
+    chunks only, and the store equals the uninterrupted one."""
+    import zarr
+
+    from pasim_graph.store import DONE, mark_incomplete
+
+    copy = tmp_path / "store"
+    shutil.copytree(volume[0], copy)
+    mark_incomplete(copy)
+    flags = zarr.open_group(str(copy), mode="r+")[DONE]
+    flags[2] = 0  # sweep 0 is chunks 0-1, sweep 1 chunks 2-3, sweep 2 chunk 4
+    flags[4] = 0
+    code, _, err = pasim_out(capsys, "score", str(copy))
+    assert code == 2 and "3 of 5 chunks written" in err
+    code, _, err = pasim_out(capsys, *ARGS, "--chunk", "4", "--out", str(copy), "--resume")
+    assert code == 0, err
+    assert "2 of 5 chunks" in err
+    a, b = _open(copy), _open(volume[0])
+    for name in sweep_names(b):
+        np.testing.assert_array_equal(a[name]["DBZH"].values, b[name]["DBZH"].values)
