@@ -66,3 +66,19 @@ def test_plot_draws_an_rhi_as_range_height(store, tmp_path, capsys):
     assert imread(out).shape[0] > 100
     code, _, err = pasim_out(capsys, "plot", str(store), "--sweep", "3", "--out", str(out))
     assert code == 2 and "no sweep 3" in err and "sweep_0" in err
+
+
+def test_an_rhi_gives_the_same_numbers_whatever_the_chunking(tmp_path):
+    """Beams at one azimuth, drawn by the default (random) level: chunks of 1 and of 3 store
+    the same values."""
+    import xarray as xr
+
+    from pasim_graph.cli import main
+
+    args = ["run", RHI, "--set", "scan.elevation_stop_deg=2", "--outputs", "DBZH,ZDR"]
+    for chunk in ("1", "3"):
+        assert main([*args, "--chunk", chunk, "--out", str(tmp_path / chunk)]) == 0
+    a, b = (xr.open_datatree(tmp_path / c, engine="zarr")["sweep_0"] for c in ("1", "3"))
+    for name in ("DBZH", "ZDR", "error_DBZH"):
+        np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
+    assert np.isfinite(a["DBZH"].values).any()
