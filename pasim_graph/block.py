@@ -201,7 +201,7 @@ class Block:
         raise NotImplementedError
 
     @classmethod
-    def sweeps(cls, params: dict[str, Any]) -> list[dict[str, Any]]:
+    def scan_sweeps(cls, params: dict[str, Any]) -> list[dict[str, Any]]:
         """The sweeps of a scan (beam sources only): one dict of this block's parameter
         overrides per sweep, read from the class and the graph's ``params`` (defaults not
         filled in). The executor runs the graph once per sweep, the beam source built with

@@ -121,7 +121,7 @@ def plan(graph: Graph, options: RunOptions) -> Plan:
             params = dict(graph.params[n])
             if n == source:
                 # A scan of several sweeps runs its first here (pasim_graph.sweeps the rest).
-                params.update((cls.sweeps(dict(params)) or [{}])[0])
+                params.update((cls.scan_sweeps(dict(params)) or [{}])[0])
             blocks[n] = cls(name=n, **params)
         except Exception as exc:
             raise BlockError(n, cls.type_name, None, exc) from exc

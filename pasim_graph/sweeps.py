@@ -1,10 +1,10 @@
-"""The sweeps of a run: a scan may declare several (a volume's cuts, an RHI then a PPI, a
-schedule's groups of beams), each with its own beam-source parameters (elevation, PRT,
-pulses...). The graph runs once per sweep with the beam source rebuilt from that sweep's
-overrides; every other block, its file I/O and its once-per-run outputs are shared.
+"""The sweeps of a run: a scan may declare several (a volume's cuts, a schedule's groups of
+beams), each with its own beam-source parameters (elevation, PRT, pulses...). The graph runs
+once per sweep with the beam source rebuilt from that sweep's overrides; every other block,
+its file I/O and its once-per-run outputs are shared.
 
-The hook is the beam source's class method ``sweeps(params)`` (:meth:`Block.sweeps`), read
-from the class: the engine never imports the block library.
+The hook is the beam source's class method ``scan_sweeps(params)``
+(:meth:`Block.scan_sweeps`), read from the class: the engine never imports the block library.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ def sweep_overrides(graph: Graph) -> list[dict[str, Any]]:
     name = beam_source(graph)
     cls = graph.classes[name]
     try:
-        overrides = list(cls.sweeps(dict(graph.params[name])))
+        overrides = list(cls.scan_sweeps(dict(graph.params[name])))
     except Exception as exc:
         raise BlockError(name, cls.type_name, None, exc) from exc
     return overrides or [{}]

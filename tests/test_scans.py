@@ -55,7 +55,7 @@ def test_volume_sweeps_follow_each_other_in_time():
         "azimuth_start_deg": 240.0,
         "azimuth_stop_deg": 250.0,
     }
-    sweeps = VolumeScan.sweeps(params)
+    sweeps = VolumeScan.scan_sweeps(params)
     assert [s["elevation_deg"] for s in sweeps] == [0.5, 1.5, 3.4]
     dwell = [10 * 16 * 0.003, 10 * 32 * 0.001, 4 * 8 * 0.002]
     np.testing.assert_allclose([s["time_offset_s"] for s in sweeps], [0, dwell[0], sum(dwell[:2])])

@@ -37,7 +37,7 @@ def test_beams_group_by_pulses_and_prt_and_follow_the_timeline(tmp_path):
     assert [list(s) for s in schedule.sweeps] == [[0, 2], [1, 3]]
     dwell = [16 * 0.003, 48 * 0.001, 16 * 0.003, 48 * 0.001]
     np.testing.assert_allclose(schedule.offset, np.concatenate([[0], np.cumsum(dwell)[:-1]]))
-    assert ScheduledScan.sweeps({"path": path}) == [{"sweep_index": 0}, {"sweep_index": 1}]
+    assert ScheduledScan.scan_sweeps({"path": path}) == [{"sweep_index": 0}, {"sweep_index": 1}]
     block = ScheduledScan(name="scan", path=path, sweep_index=1)
     beams = block.process({}, Chunk(beams=np.arange(2)))["beams"]
     np.testing.assert_allclose(beams["azimuth"].values, [301, 302])

@@ -29,6 +29,8 @@ ARGS = [
     "scan.preset=''",
     "--set",
     f"scan.cuts={CUTS}",
+    "--set",
+    "truth.elevation_max_deg=3.4",
     "--save-iq",
 ]
 
@@ -194,3 +196,29 @@ def test_resume_runs_only_the_chunks_not_flagged_done_in_any_sweep(volume, tmp_p
     a, b = _open(copy), _open(volume[0])
     for name in sweep_names(b):
         np.testing.assert_array_equal(a[name]["DBZH"].values, b[name]["DBZH"].values)
+
+
+def test_each_cut_is_scored_against_the_truth_at_its_elevation(volume):
+    """The example's volume truth: the 3.4 deg cut is scored against the file's 3.38 deg
+    sweep (nearest between sweeps), read here independently as a single-sweep truth, at the
+    radial nearest each beam; the 0.5 deg cut against the 0.48 deg sweep."""
+    from pasim_blocks.truth.nexrad import NexradTruth
+
+    from pasim_graph import Chunk as C
+
+    tree = _open(volume[0])
+    for group, elevation in (("sweep_0", 0.5), ("sweep_2", 3.4)):
+        block = NexradTruth(name="truth", elevation_deg=elevation)
+        single = block.process({}, C(beams=np.arange(0), resource=block.load()))["truth"]
+        ds = tree[group].to_dataset()
+        radials = single["azimuth"].values
+        rows = [
+            int(np.argmin(np.abs((radials - a + 180) % 360 - 180))) for a in ds["azimuth"].values
+        ]
+        n = min(ds.sizes["range"], single.sizes["gate"])
+        np.testing.assert_allclose(ds["range"].values[:n], single["range"].values[:n])
+        expected = single["DBZH"].values[rows, :n]
+        stored = ds["truth_DBZH"].values[:, :n]
+        both = np.isfinite(expected) & np.isfinite(stored)
+        assert both.sum() > 200, group
+        np.testing.assert_allclose(stored[both], expected[both], atol=0.01, err_msg=group)

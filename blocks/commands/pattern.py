@@ -368,7 +368,7 @@ def scan_beams(graph: Any) -> list[tuple[float, float]]:
     name = scans[0]
     cls = graph.classes[name]
     out: list[tuple[float, float]] = []
-    for overrides in cls.sweeps(dict(graph.params[name])):
+    for overrides in cls.scan_sweeps(dict(graph.params[name])):
         scan = cls(name=name, **{**graph.params[name], **overrides})
         n = scan.beam_count()
         beams = scan.process({}, Chunk(beams=np.arange(n), block_name=name))["beams"]

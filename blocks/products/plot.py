@@ -128,7 +128,9 @@ def _limits(sweep: xr.Dataset, name: str) -> tuple[float, float]:
     return style.vmin, style.vmax
 
 
-def _extent(sweep: xr.Dataset, names: list[str], x: np.ndarray, y: np.ndarray) -> list[float]:
+def _extent(
+    sweep: xr.Dataset, names: list[str], x: np.ndarray, y: np.ndarray, exact: bool = False
+) -> list[float]:
     """The box around the weather: gates where the truth has data (a margin of 5 %).
 
     An estimate exists at every gate, noise included, so it would always ask for the whole
@@ -141,6 +143,12 @@ def _extent(sweep: xr.Dataset, names: list[str], x: np.ndarray, y: np.ndarray) -
             has |= np.isfinite(np.asarray(sweep[v].values, dtype=np.float64))
     if not has.any():
         xs, ys = x, y
+    elif exact:
+        # The corners of the gates with data themselves (an RHI: the index box's corners
+        # would reach the top beam's far gates, tens of km up).
+        rows, cols = np.nonzero(has)
+        xs = np.concatenate([x[rows + i, cols + j] for i in (0, 1) for j in (0, 1)])
+        ys = np.concatenate([y[rows + i, cols + j] for i in (0, 1) for j in (0, 1)])
     else:
         rows, cols = np.nonzero(has)
         r0, r1 = rows.min(), rows.max() + 1
@@ -187,7 +195,7 @@ def moment_row(
     x, y = mesh(sweep)
     rhi = is_rhi(sweep)
     vmin, vmax = _limits(sweep, name)
-    extent = _extent(sweep, [name], x, y)
+    extent = _extent(sweep, [name], x, y, exact=rhi)
     lim = style.error_limit
     common = {"mesh": (x, y)}
     _panel(

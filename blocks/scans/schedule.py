@@ -166,7 +166,7 @@ class ScheduledScan(Block):
         return [("parameter 'path'", p) for p in shown]
 
     @classmethod
-    def sweeps(cls, params: dict[str, Any]) -> list[dict[str, Any]]:
+    def scan_sweeps(cls, params: dict[str, Any]) -> list[dict[str, Any]]:
         schedule, problems = read_schedule(str(params.get("path")))
         if schedule is None:
             raise ValueError("; ".join(problems[:3]))

@@ -109,7 +109,7 @@ class VolumeScan(PPISector):
         return out
 
     @classmethod
-    def sweeps(cls, params: dict[str, Any]) -> list[dict[str, Any]]:
+    def scan_sweeps(cls, params: dict[str, Any]) -> list[dict[str, Any]]:
         def get(name: str, values: dict[str, Any]) -> Any:
             return values.get(name, cls.params[name].default)
 
