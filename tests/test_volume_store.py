@@ -86,7 +86,7 @@ def test_volume_scores_pool_every_sweeps_gates(volume):
     (numpy here), and each sweep's are its own."""
     tree = _open(volume[0])
     scores = volume_scores(tree)
-    errors = [tree[n]["error_DBZH"].values.ravel() for n in sweep_names(tree)]
+    errors = [tree[n]["error_DBZH"].values.ravel().astype(np.float64) for n in sweep_names(tree)]
     errors = [e[np.isfinite(e)] for e in errors]
     pooled = np.concatenate(errors)
     assert scores["scores"]["DBZH"]["count"] == pooled.size
