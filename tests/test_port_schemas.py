@@ -286,8 +286,11 @@ def test_library_blocks_return_what_they_declare(label, source, options, tmp_pat
         path.write_text(source)
         source = path
     # Two beams of eight pulses, however the scan defines its beams.
-    sector: str | None = "280:282"
-    scan = read(source).blocks["scan"].type
+    spec = read(source)
+    scan = spec.blocks["scan"].type
+    # The first two degrees of the graph's own sector (an array's face points there).
+    start = float(spec.blocks["scan"].params.get("azimuth_start_deg", 280.0))
+    sector: str | None = f"{start:g}:{start + 2:g}"
     if scan == "scan.rhi":
         sets, sector = [*sets, "scan.elevation_stop_deg=1.0"], None
     elif scan == "scan.schedule":
