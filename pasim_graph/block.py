@@ -39,6 +39,8 @@ class Chunk:
     options : mapping
         Run options a block may read (``save_iq``; ``fields``: the output fields asked for,
         None for all; see :meth:`wants`).
+    sweep : int
+        Index of the sweep of a volume the beams belong to (0 for a one-sweep scan).
     """
 
     beams: np.ndarray
@@ -46,9 +48,11 @@ class Chunk:
     block_name: str = ""
     resource: Any = None
     options: Mapping[str, Any] = field(default_factory=dict)
+    sweep: int = 0
 
     def rng(self, beam: int, *stream: int) -> np.random.Generator:
-        """Random generator for one beam, from the run seed, the block name and the beam index.
+        """Random generator for one beam, from the run seed, the block name, the sweep and the
+        beam index.
 
         Streams are per beam so that the numbers do not depend on how beams are chunked or on
         which worker runs them. Extra integers select independent sub-streams, so that a part
@@ -56,7 +60,10 @@ class Chunk:
         draws H from ``rng(beam)`` and V from ``rng(beam, 1)`` gives the same H when it is
         asked for H only).
         """
-        key = zlib.crc32(self.block_name.encode())
+        # Each sweep of a volume draws its own streams (beam indices restart at 0 in each);
+        # the first sweep's are those of a one-sweep scan.
+        name = self.block_name if not self.sweep else f"{self.block_name}#sweep{self.sweep}"
+        key = zlib.crc32(name.encode())
         entropy = [self.seed, key, int(beam), *(int(s) for s in stream)]
         return np.random.default_rng(np.random.SeedSequence(entropy))
 
@@ -192,6 +199,15 @@ class Block:
     def beam_count(self) -> int:
         """Number of beams in the scan (beam sources only)."""
         raise NotImplementedError
+
+    @classmethod
+    def scan_sweeps(cls, params: dict[str, Any]) -> list[dict[str, Any]]:
+        """The sweeps of a scan (beam sources only): one dict of this block's parameter
+        overrides per sweep, read from the class and the graph's ``params`` (defaults not
+        filled in). The executor runs the graph once per sweep, the beam source built with
+        that sweep's overrides, and stores each as its own FM-301 ``sweep_N`` group. The
+        default is one sweep with the graph's parameters."""
+        return [{}]
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         raise NotImplementedError

@@ -75,7 +75,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         check_scheduler,
     )
     from .executor import BlockError, RunOptions
-    from .store import StoreError, StoreExistsError, open_volume, summarize
+    from .scores import print_volume, volume_scores
+    from .store import StoreError, StoreExistsError, open_volume
 
     graph = _graph(args)
     out = Path(args.out)
@@ -118,10 +119,11 @@ def cmd_run(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
             progress=args.progress or sys.stderr.isatty(),
         )
-        n = executor.local.plan.beam_count
+        n = sum(s.plan.beam_count for s in executor.sweeps)
+        sweeps = f" in {len(executor.sweeps)} sweeps" if len(executor.sweeps) > 1 else ""
         print(
-            f"running {args.graph}: {n} beams in chunks of {executor.options.chunk_beams}, "
-            f"seed {args.seed}",
+            f"running {args.graph}: {n} beams{sweeps} in chunks of "
+            f"{executor.options.chunk_beams}, seed {args.seed}",
             file=sys.stderr,
         )
         with stop_on_signals():
@@ -148,7 +150,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         file=sys.stderr,
     )
     # The table is the product: on standard output, so `pasim run ... > scores.txt` keeps it.
-    _print_scores(summarize(open_volume(out)["sweep_0"].to_dataset()), sys.stdout)
+    print_volume(volume_scores(open_volume(out)), sys.stdout)
     return 0
 
 
@@ -220,7 +222,8 @@ def cmd_tradeoff(args: argparse.Namespace) -> int:
 
 
 def cmd_score(args: argparse.Namespace) -> int:
-    from .store import NotAStoreError, open_sweep, summarize
+    from .scores import print_volume, volume_scores
+    from .store import NotAStoreError, open_sweep, open_volume
 
     if args.against or args.by:
         # Against another store or per azimuth: the radar scoring is the block library's
@@ -230,54 +233,19 @@ def cmd_score(args: argparse.Namespace) -> int:
             raise UserError("--against and --by need the block library's `compare` command")
         return int(command.score(args))
     try:
-        sweep, _ = open_sweep(args.store)
+        open_sweep(args.store)  # refuses, naming it, a store that is missing, unfinished or damaged
+        volume = volume_scores(open_volume(args.store))
     except NotAStoreError as exc:
         raise UserError(str(exc)) from None
-    scores = summarize(sweep)
-    if not scores:
+    if not volume["scores"]:
         raise UserError(f"{args.store}: holds no scored fields (the graph had no scorer)")
     if args.json:
-        print(json.dumps(json_safe(scores), indent=2))
+        # One sweep: its scores by moment, as always; a volume: each sweep's and the pooled.
+        one = len(volume["sweeps"]) == 1
+        print(json.dumps(json_safe(volume["scores"] if one else volume), indent=2))
     else:
-        _print_scores(scores, sys.stdout)
+        print_volume(volume, sys.stdout)
     return 0
-
-
-def _print_scores(scores: dict[str, dict[str, Any]], stream: Any) -> None:
-    if not scores:
-        return
-    print(
-        f"{'moment':8} {'bias':>9} {'std':>9} {'count':>8}  {'req bias/std':>14}  pass", file=stream
-    )
-    for name, s in scores.items():
-        req = f"{s['requirement_bias']:g}/{s['requirement_std']:g}"
-        print(
-            f"{name:8} {s['bias']:9.4f} {s['std']:9.4f} {s['count']:8d}  {req:>14}  "
-            f"{'yes' if s['pass'] else 'no'}",
-            file=stream,
-        )
-    first = next(iter(scores.values()))
-    if first.get("scored"):
-        print(f"scored gates: {first['scored']}", file=stream)
-    if first.get("excluded"):
-        print(
-            f"not scored: {first['excluded']} gates that meet the rule, {first['excluded_reason']}",
-            file=stream,
-        )
-    n = first.get("scored_gates", first["count"])
-    if n == 0:
-        print(
-            "no gate met the scoring rule: nothing to score (is the sector all masked?)",
-            file=stream,
-        )
-        return
-    for name, s in scores.items():
-        if s.get("unestimated"):
-            print(
-                f"{name}: {s['unestimated']} of {n} scored gates have no estimate (censored "
-                "below the processor's SNR threshold, or undefined: noise-corrected power <= 0)",
-                file=stream,
-            )
 
 
 def parser(argv: list[str] | None = None) -> argparse.ArgumentParser:

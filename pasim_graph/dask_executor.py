@@ -18,11 +18,11 @@ import contextlib
 import errno
 import json
 import os
-import shutil
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -34,28 +34,23 @@ from .executor import LocalExecutor, RunOptions, chunks, merge_products
 from .graph import Graph
 from .interrupt import STOPPING
 from .resources import (
-    DISK_MARGIN,
-    THREAD_ADDRESS_SPACE,
     DiskFullError,
     Probe,
     ResourceError,
-    address_space_limited,
-    gib,
     layout_bytes,
-    memory_available,
     stored_bytes,
     traced,
-    tree_bytes,
 )
 from .resume_key import ResumeError, input_digests, resume_mismatch, run_key
+from .run_checks import check_resources, chunks_at_once, damaged_chunks, disk_full_message
+from .scores import TIME_ON_TARGET, time_on_target
 from .store import (
     COMPLETE,
-    DONE,
     StoreLock,
     beam_dimension,
-    check_chunks,
     clear_store,
-    create_volume,
+    create_root,
+    create_sweep,
     describe_holder,
     discard_store,
     mark_complete,
@@ -66,6 +61,9 @@ from .store import (
     split_volume,
     write_region,
 )
+from .sweeps import sweep_executors, sweep_group
+
+__all__ = ["ResourceError", "ResumeError"]  # re-exported: the command line catches them here
 
 
 @dataclass
@@ -75,6 +73,8 @@ class RunReport:
     beams: int
     seconds_setup: float = 0.0  # reading inputs, once-per-run blocks, the store's layout
     seconds_chunks: float = 0.0  # running and writing the chunks
+    sweeps: int = 1
+    time_on_target_s: float = 0.0  # sum of the dwells of every beam of every sweep
 
 
 #: ``scheduler`` values that run in this process: dask's threads (the default) or its
@@ -132,14 +132,16 @@ def _run_and_write(
     index: int,
     path: str,
     attrs: dict[str, Any],
+    group: str = "sweep_0",
 ) -> int:
-    """One task: run the graph on a chunk of beams and write its region (on a worker)."""
+    """One task: run the graph on a chunk of one sweep's beams and write its region of that
+    sweep's group (on a worker); ``index`` numbers the chunk among all the run's chunks."""
     if STOPPING.is_set():
         return -1
     _, sweep = split_volume(merge_products(executor.run_chunk(static, beams)), attrs)
     if STOPPING.is_set():
         return -1  # the run was stopped while this chunk ran: it writes nothing more
-    write_region(path, sweep, int(beams[0]), index)
+    write_region(path, sweep, int(beams[0]), index, group)
     return index
 
 
@@ -173,13 +175,17 @@ class DaskExecutor:
     ):
         self.graph = graph
         self.options = options or RunOptions()
-        self.local = LocalExecutor(graph, self.options)
-        n_beams = self.local.plan.beam_count
+        #: One executor per sweep of the scan (most scans have one); they share all but the
+        #: beam source. ``local`` is the first.
+        self.sweeps = sweep_executors(graph, self.options)
+        self.local = self.sweeps[0]
+        n_beams = max(s.plan.beam_count for s in self.sweeps)
         if self.options.chunk_beams > n_beams:
             # One chunk holds the whole scan: a larger chunk changes nothing but the store's
             # chunk shape, which zarr and dask cannot make of an --chunk of 2**64.
             self.options = replace(self.options, chunk_beams=n_beams)
-            self.local.options = self.options
+            for sweep in self.sweeps:
+                sweep.options = self.options
         self.workers, self.scheduler, self.progress = workers, scheduler, progress
         self._cluster: Any = None
         self._disk_estimate = 0  # bytes the store will take, once the first beam has shown it
@@ -203,8 +209,12 @@ class DaskExecutor:
         path = Path(path)
         inputs = input_digests(self.graph)
         key = run_key(self.graph, self.options, inputs)
-        n_beams = self.local.plan.beam_count
-        starts = [b for b in chunks(n_beams, self.options.chunk_beams)]
+        # Every chunk of every sweep, numbered in scan order: (sweep, beams).
+        starts = [
+            (k, b)
+            for k, sweep in enumerate(self.sweeps)
+            for b in chunks(sweep.plan.beam_count, self.options.chunk_beams)
+        ]
         lock = open_store(path, overwrite=overwrite, resume=resume, command=command)
         try:
             if lock.previous:
@@ -218,7 +228,7 @@ class DaskExecutor:
                 discard_store(lock)
                 raise
             discard_store(lock)  # only a store that holds nothing yet
-            raise DiskFullError(self._disk_full_message(path, len(starts))) from None
+            raise DiskFullError(disk_full_message(path, len(starts), self._disk_estimate)) from None
         except BaseException as exc:
             # Nothing computed was written yet: leave no empty store to trip the next run.
             discard_store(lock)
@@ -233,12 +243,12 @@ class DaskExecutor:
         lock: StoreLock,
         key: str,
         inputs: dict[str, str],
-        starts: list[np.ndarray],
+        starts: list[tuple[int, np.ndarray]],
         attrs: dict[str, Any],
         log: Callable[[str], None],
     ) -> RunReport:
         path = lock.path.parent
-        n_beams = self.local.plan.beam_count
+        n_beams = sum(s.plan.beam_count for s in self.sweeps)
         done = np.zeros(len(starts), bool)
         # --overwrite: the old store is laid out afresh, but emptied only once this run has
         # read its inputs and passed its checks (lock.replace below).
@@ -255,17 +265,21 @@ class DaskExecutor:
             # In a finished store every chunk counts (a damaged done flag reads as not done);
             # in an unfinished one, chunks not yet done are written anyway.
             complete = state[0].get(COMPLETE) == "true"
-            repair = [i for i in self._damaged_chunks(path, len(starts)) if complete or done[i]]
+            offsets: dict[str, tuple[int, int]] = {}
+            for i, (k, _) in enumerate(starts):
+                first, count = offsets.get(sweep_group(k), (i, 0))
+                offsets[sweep_group(k)] = (first, count + 1)
+            repair = [i for i in damaged_chunks(path, offsets) if complete or done[i]]
             if repair:
                 log(
                     f"rewriting {len(repair)} damaged chunk(s) of {path}: "
-                    + ", ".join(f"{i} (beams {starts[i][0]}-{starts[i][-1]})" for i in repair)
+                    + ", ".join(f"{i} ({self._chunk_text(starts[i])})" for i in repair)
                 )
                 done[repair] = False
                 mark_incomplete(path)
             elif state[0].get(COMPLETE) == "true":
                 log(f"{path} is already complete")
-                return RunReport(len(starts), 0, n_beams)
+                return RunReport(len(starts), 0, n_beams, sweeps=len(self.sweeps))
         attrs = {
             **attrs,
             "pasim_run_key": key,
@@ -278,34 +292,18 @@ class DaskExecutor:
         pool = ThreadPoolExecutor(1)
         distributed = self.workers or self.scheduler not in (None, *LOCAL_SCHEDULERS)
         client = pool.submit(self._connect) if distributed else None
+        on_target = 0.0
         try:
+            # The sweeps share their blocks' resources (one dict): read once.
             self.local.load()
             static = self.local.run_static()
             if state is None:
-                # One beam fixes the store's layout; every chunk then runs in parallel. It is
-                # also the probe that says whether the whole run fits.
-                parts, probe_memory = traced(lambda: self.local.run_chunk(static, np.arange(1)))
-                first = merge_products(parts + self.local.static_products(static))
-                root, sweep = split_volume(first, attrs)
-                dim = beam_dimension(sweep)
-                probe = Probe(
-                    *probe_memory, stored_bytes(sweep, dim), layout_bytes(root, sweep, dim)
-                )
-                self._check_resources(path, probe, n_beams, lock)
-                replace_store(lock)
-                create_volume(
-                    path,
-                    root,
-                    sweep,
-                    self._all_beam_coords(static, sweep),
-                    n_beams,
-                    self.options.chunk_beams,
-                    len(starts),
-                )
+                on_target = self._lay_out(path, lock, static, attrs, len(starts))
             todo = [i for i in range(len(starts)) if not done[i]]
             # Blocks that run once have done their I/O; workers need only per-chunk blocks.
-            plan = self.local.plan
-            plan.resources = {n: r for n, r in plan.resources.items() if n in plan.per_chunk}
+            for sweep in self.sweeps:
+                plan = sweep.plan
+                plan.resources = {n: r for n, r in plan.resources.items() if n in plan.per_chunk}
             t1 = time.perf_counter()
             keys = {i: chunk_key(key, i) for i in todo}
             if client is not None:
@@ -325,95 +323,60 @@ class DaskExecutor:
                     self._cluster.close()
             pool.shutdown()
         mark_complete(path)
-        return RunReport(len(starts), len(todo), n_beams, t1 - t0, t2 - t1)
-
-    def _disk_full_message(self, path: Path, n_chunks: int) -> str:
-        state = run_state(path) if path.exists() else None
-        free = shutil.disk_usage(path if path.exists() else path.parent).free
-        where = "while creating the store"
-        if state is not None:
-            where = f"with {int(state[1].sum())} of {n_chunks} chunks written"
-        need = (
-            f"; the whole run writes about {gib(self._disk_estimate)}"
-            if self._disk_estimate
-            else ""
+        return RunReport(
+            len(starts), len(todo), n_beams, t1 - t0, t2 - t1, len(self.sweeps), on_target
         )
-        keep = (
-            "the store is kept: free space and complete it with --resume"
-            if state is not None
-            else "nothing was kept: free space and run it again"
+
+    def _lay_out(
+        self, path: Path, lock: StoreLock, static: dict, attrs: dict[str, Any], n_chunks: int
+    ) -> float:
+        """Run each sweep's first beam, check the run fits, then write every sweep's layout
+        and the root last. Returns the volume's time on target (s)."""
+        # One beam per sweep fixes the store's layout; every chunk then runs in parallel. It
+        # is also the probe that says whether the whole run fits.
+        layouts, probes, times, roots = [], [], [], []
+        for sweep_run in self.sweeps:
+            parts, memory = traced(partial(sweep_run.run_chunk, static, np.arange(1)))
+            first = merge_products(parts + sweep_run.static_products(static))
+            root, sweep = split_volume(first, attrs)
+            dim = beam_dimension(sweep)
+            n = sweep_run.plan.beam_count
+            geometry = sweep_run.beam_geometry(static)
+            times.append(time_on_target(geometry))
+            sweep.attrs[TIME_ON_TARGET] = times[-1]
+            probe = Probe(*memory, stored_bytes(sweep, dim), layout_bytes(root, sweep, dim))
+            probes.append((probe, n))
+            layouts.append((sweep, self._all_beam_coords(geometry, sweep), n))
+            roots.append(root)
+        self._disk_estimate = check_resources(
+            path,
+            probes,
+            lock,
+            chunk_beams=self.options.chunk_beams,
+            at_most=chunks_at_once(self.workers, self.scheduler, LOCAL_SCHEDULERS),
         )
-        return f"{path}: the disk is full ({where}; {gib(free)} free{need}); {keep}"
+        replace_store(lock)
+        for k, (sweep, coords, n) in enumerate(layouts):
+            if len(layouts) > 1 and "sweep_number" in sweep:
+                sweep["sweep_number"] = ((), k)
+            chunk = min(self.options.chunk_beams, n)
+            create_sweep(path, sweep_group(k), sweep, coords, n, chunk)
+        root = roots[0]
+        if "time_coverage_end" in roots[-1]:  # the volume ends with its last sweep
+            root["time_coverage_end"] = roots[-1]["time_coverage_end"]
+        root.attrs[TIME_ON_TARGET] = float(sum(times))
+        create_root(path, root, n_chunks)
+        return float(sum(times))
 
-    def _damaged_chunks(self, path: Path, n_chunks: int) -> list[int]:
-        """The run's chunks whose stored data was damaged on disk (to be written again).
+    def _chunk_text(self, start: tuple[int, np.ndarray]) -> str:
+        k, beams = start
+        where = f"sweep {k}, " if len(self.sweeps) > 1 else ""
+        return f"{where}beams {beams[0]}-{beams[-1]}"
 
-        Damage outside the per-beam arrays (metadata, coordinates) cannot be rewritten chunk
-        by chunk: that store is refused, naming it.
-        """
-        damage = check_chunks(path)
-        redo, other = set(), []
-        for d in damage:
-            if d.chunk is not None and d.node == DONE:
-                redo.add(d.chunk[0])
-            elif d.chunk is not None and d.node.startswith("sweep_0/") and d.beam_axis is not None:
-                redo.add(d.chunk[d.beam_axis])
-            else:
-                other.append(d)
-        if other:
-            raise ResumeError(
-                f"{path}: " + "; ".join(map(str, other[:6])) + " cannot be rewritten by --resume "
-                "(only whole chunks of the beams can); run it again with --overwrite"
-            )
-        return sorted(i for i in redo if i < n_chunks)
-
-    def _check_resources(self, path: Path, probe: Probe, n_beams: int, lock: StoreLock) -> None:
-        """Refuse a run whose products would not fit the disk, or whose chunks the memory."""
-        disk = probe.stored_bytes * n_beams + probe.layout_bytes
-        self._disk_estimate = disk
-        free = shutil.disk_usage(path).free
-        if lock.replacing:
-            free += tree_bytes(path)  # the store being replaced is freed before writing
-        # Beams compress differently (storm against clear air): the estimate was 0.74 to
-        # 1.08 of what the example graphs wrote on the bundled scene (0.28 for the uniform
-        # scene's sub-megabyte store; docs/reliability.md), so the run is refused unless a
-        # half more than the estimate fits.
-        if DISK_MARGIN * disk > free:
-            raise ResourceError(
-                f"this run would write about {gib(disk)} to {path} "
-                f"({gib(probe.stored_bytes)} per beam x {n_beams} beams, compressed, plus "
-                f"its layout; up to {DISK_MARGIN:g}x that in beams full of echo) and "
-                f"{gib(free)} is free there; write fewer fields (--outputs, no --save-iq), "
-                "fewer beams, or choose another --out"
-            )
-        if self.scheduler not in (None, *LOCAL_SCHEDULERS):
-            return  # a remote cluster's memory is not ours to judge
-
-        if self.workers:
-            at_once = self.workers
-        elif self.scheduler == "sync":
-            at_once = 1
-        else:
-            at_once = os.cpu_count() or 1
-        at_once = min(at_once, -(-n_beams // self.options.chunk_beams))
-        beams = min(self.options.chunk_beams, n_beams)
-        need = probe.shared_bytes + probe.working_bytes * beams * at_once
-        threads = ""
-        if address_space_limited() and at_once > 1:
-            need += THREAD_ADDRESS_SPACE * at_once
-            threads = f", plus {gib(THREAD_ADDRESS_SPACE * at_once)} of threads' address space"
-        available = memory_available()
-        if need > available:
-            raise ResourceError(
-                f"this run would need about {gib(need)} of memory ({gib(probe.working_bytes)} "
-                f"per beam x {beams} beams per chunk x {at_once} chunks at once, plus "
-                f"{gib(probe.shared_bytes)} shared{threads}) and {gib(available)} is available; "
-                "use a smaller --chunk or fewer --workers"
-            )
-
-    def _all_beam_coords(self, static: dict, sweep: xr.Dataset) -> dict[str, Any]:
-        """Index coordinates along the beams, for every beam (the template needs them all)."""
-        _, full = split_volume(self.local.beam_geometry(static), {})
+    def _all_beam_coords(self, geometry: xr.Dataset, sweep: xr.Dataset) -> dict[str, Any]:
+        """Index coordinates along the beams, for every beam (the template needs them all);
+        ``geometry`` is what the beam source gives for every beam of the sweep."""
+        _, full = split_volume(geometry, {})
         dim = beam_dimension(full)
         return {
             str(name): full[name].variable
@@ -425,7 +388,7 @@ class DaskExecutor:
         self,
         todo: list[int],
         keys: dict[int, str],
-        starts: list[np.ndarray],
+        starts: list[tuple[int, np.ndarray]],
         static: dict,
         path: str,
         attrs: dict[str, Any],
@@ -438,7 +401,14 @@ class DaskExecutor:
 
         tasks = [
             dask.delayed(_run_and_write, pure=False)(
-                self.local, static, starts[i], i, path, attrs, dask_key_name=keys[i]
+                self.sweeps[starts[i][0]],
+                static,
+                starts[i][1],
+                i,
+                path,
+                attrs,
+                sweep_group(starts[i][0]),
+                dask_key_name=keys[i],
             )
             for i in todo
         ]
@@ -502,7 +472,7 @@ class DaskExecutor:
         client: Any,
         todo: list[int],
         keys: dict[int, str],
-        starts: list[np.ndarray],
+        starts: list[tuple[int, np.ndarray]],
         static: dict,
         path: str,
         attrs: dict[str, Any],
@@ -511,10 +481,21 @@ class DaskExecutor:
 
         if not todo:
             return
-        local = client.scatter(self.local, broadcast=True)
+        used = sorted({starts[i][0] for i in todo})
+        local = {k: client.scatter(self.sweeps[k], broadcast=True) for k in used}
         shared = client.scatter(static, broadcast=True)
         futures = [
-            client.submit(_run_and_write, local, shared, starts[i], i, path, attrs, key=keys[i])
+            client.submit(
+                _run_and_write,
+                local[starts[i][0]],
+                shared,
+                starts[i][1],
+                i,
+                path,
+                attrs,
+                sweep_group(starts[i][0]),
+                key=keys[i],
+            )
             for i in todo
         ]
         from distributed.client import FuturesCancelledError

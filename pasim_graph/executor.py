@@ -116,10 +116,15 @@ def plan(graph: Graph, options: RunOptions) -> Plan:
         order.insert(0, source)
     blocks = {}
     for n in order:
+        cls = graph.classes[n]
         try:
-            blocks[n] = graph.classes[n](name=n, **graph.params[n])
+            params = dict(graph.params[n])
+            if n == source:
+                # A scan of several sweeps runs its first here (pasim_graph.sweeps the rest).
+                params.update((cls.scan_sweeps(dict(params)) or [{}])[0])
+            blocks[n] = cls(name=n, **params)
         except Exception as exc:
-            raise BlockError(n, graph.classes[n].type_name, None, exc) from exc
+            raise BlockError(n, cls.type_name, None, exc) from exc
     static = [n for n in order if not graph.classes[n].runs_per_chunk()]
     per_chunk = [n for n in order if graph.classes[n].runs_per_chunk()]
     return Plan(graph, blocks, static, per_chunk, sinks, blocks[source].beam_count())
@@ -142,6 +147,8 @@ class LocalExecutor:
     def __init__(self, graph: Graph, options: RunOptions | None = None):
         self.options = options or RunOptions()
         self.plan = plan(graph, self.options)
+        #: Index of the sweep this executor runs (keys the random streams of its beams).
+        self.sweep = 0
         #: Seconds each block spent in process() in this process, summed over chunks.
         self.block_seconds: dict[str, float] = {}
         self._lock = threading.Lock()
@@ -174,6 +181,7 @@ class LocalExecutor:
             block_name=name,
             resource=p.resources.get(name),
             options={"save_iq": self.options.save_iq, "fields": self.options.fields},
+            sweep=self.sweep,
         )
         t0 = time.perf_counter()
         try:

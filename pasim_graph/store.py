@@ -21,6 +21,7 @@ import numpy as np
 import xarray as xr
 
 from .ports import BEAM_DIM
+from .scores import summarize as summarize  # re-exported: callers score a sweep from here
 from .store_check import DamagedStoreError, NotAStoreError, check_chunks
 from .store_lock import LOCK, StoreError, StoreLock, current_writer, describe_holder
 
@@ -277,7 +278,10 @@ def _quiet() -> Iterator[None]:
 def split_volume(sweep: xr.Dataset, attrs: dict[str, Any]) -> tuple[xr.Dataset, xr.Dataset]:
     """Name the beam dimension, and move site and volume metadata to a root dataset."""
     if BEAM_DIM in sweep.dims:
-        beam_dim = str(sweep.attrs.pop("beam_dimension", "azimuth"))
+        # FM-301: an RHI's beams run along elevation, every other sweep's along azimuth.
+        mode = str(sweep["sweep_mode"].values) if "sweep_mode" in sweep.variables else ""
+        default = "elevation" if mode == "rhi" else "azimuth"
+        beam_dim = str(sweep.attrs.pop("beam_dimension", default))
         sweep = sweep.swap_dims({BEAM_DIM: beam_dim})
     root = xr.Dataset(attrs=dict(attrs))
     for name in _SITE:
@@ -306,7 +310,21 @@ def create_volume(
     chunk_beams: int,
     n_chunks: int,
 ) -> None:
-    """Write the store's metadata and every array that does not depend on the chunks.
+    """Lay out a one-sweep store: :func:`create_sweep` for ``sweep_0``, then
+    :func:`create_root` with its ``n_chunks`` done flags."""
+    create_sweep(path, "sweep_0", sweep, beam_coords, n_beams, chunk_beams)
+    create_root(path, root, n_chunks)
+
+
+def create_sweep(
+    path: str | Path,
+    group: str,
+    sweep: xr.Dataset,
+    beam_coords: dict[str, xr.Variable],
+    n_beams: int,
+    chunk_beams: int,
+) -> None:
+    """Write one sweep's metadata and every array that does not depend on the chunks.
 
     ``sweep`` holds one chunk's data; its beam-dimension variables are laid out at full size
     (``n_beams``), chunked by ``chunk_beams`` so that chunks write disjoint Zarr chunks.
@@ -327,25 +345,32 @@ def create_volume(
             template[name] = var.variable
     coords = {n: c.variable for n, c in sweep.coords.items() if beam_dim not in c.dims}
     ds = xr.Dataset(template, coords={**coords, **beam_coords}, attrs=sweep.attrs)
-    done = xr.Dataset({DONE: ("pasim_chunk", np.zeros(n_chunks, np.int8))})
-    root = root.assign(done)
-    root.attrs[COMPLETE] = "false"
-    root_encoding = {n: encoding(v.dtype) for n, v in root.variables.items()}
-    root_encoding[DONE]["chunks"] = (1,)
     with _quiet():
         # mode "a", never "w": zarr's "w" empties the whole directory, marker and lock included.
-        # The sweep's layout first, the root with its done flags last: until those exist the
-        # store has no run (run_state is None) and is laid out afresh, so a run killed or out
-        # of space while writing the template never leaves a half layout to resume.
         ds.to_zarr(
             path,
-            group="sweep_0",
+            group=group,
             mode="a",
             consolidated=False,
             compute=False,
             encoding={n: encoding(v.dtype) for n, v in ds.variables.items()},
             write_empty_chunks=True,
         )
+
+
+def create_root(path: str | Path, root: xr.Dataset, n_chunks: int) -> None:
+    """Write the root group and, last, the done flags of the run's ``n_chunks`` chunks.
+
+    Called after every sweep's layout: until the flags exist the store has no run
+    (run_state is None) and is laid out afresh, so a run killed or out of space while writing
+    the template never leaves a half layout to resume.
+    """
+    done = xr.Dataset({DONE: ("pasim_chunk", np.zeros(n_chunks, np.int8))})
+    root = root.assign(done)
+    root.attrs[COMPLETE] = "false"
+    root_encoding = {n: encoding(v.dtype) for n, v in root.variables.items()}
+    root_encoding[DONE]["chunks"] = (1,)
+    with _quiet():
         rest = [n for n in root.data_vars if n != DONE]
         root[rest].to_zarr(
             path,
@@ -386,8 +411,11 @@ def encoding(dtype: np.dtype) -> dict[str, Any]:
     return out
 
 
-def write_region(path: str | Path, sweep: xr.Dataset, start: int, chunk_index: int) -> None:
-    """Write one chunk's beams into their region, then flag the chunk as done."""
+def write_region(
+    path: str | Path, sweep: xr.Dataset, start: int, chunk_index: int, group: str = "sweep_0"
+) -> None:
+    """Write one chunk's beams into their region of ``group``, then flag the chunk (its
+    index among all the run's chunks) as done."""
     import zarr
 
     beam_dim = beam_dimension(sweep)
@@ -396,9 +424,9 @@ def write_region(path: str | Path, sweep: xr.Dataset, start: int, chunk_index: i
     stop = start + sweep.sizes[beam_dim]
     # What is stored must be what was computed: xarray casts silently (complex to real drops
     # the Q channel), so a variable whose dtype differs from its stored array's is refused.
-    group = zarr.open_group(str(path), path="sweep_0", mode="r")
+    stored_group = zarr.open_group(str(path), path=group, mode="r")
     for name in region_vars:
-        stored = group[str(name)].dtype  # type: ignore[union-attr]
+        stored = stored_group[str(name)].dtype  # type: ignore[union-attr]
         if ds[name].dtype.kind in "fciub" and stored != ds[name].dtype:
             raise TypeError(
                 f"{path}: variable {name} is {ds[name].dtype} but its store holds {stored}; "
@@ -409,7 +437,7 @@ def write_region(path: str | Path, sweep: xr.Dataset, start: int, chunk_index: i
         # missing chunk file is damage (check_chunks), never a silent NaN.
         ds.to_zarr(
             path,
-            group="sweep_0",
+            group=group,
             region={beam_dim: slice(start, stop)},
             consolidated=False,
             write_empty_chunks=True,
@@ -475,8 +503,9 @@ class IncompleteStoreError(RuntimeError):
     pass
 
 
-def open_sweep(path: str | Path) -> tuple[xr.Dataset, dict[str, Any]]:
-    """The first sweep of a finished run and its root attributes.
+def open_sweep(path: str | Path, index: int = 0) -> tuple[xr.Dataset, dict[str, Any]]:
+    """A sweep of a finished run (``sweep_<index>``, the first by default) and its root
+    attributes.
 
     Raises :class:`NotAStoreError` naming the path when it is missing, not a store, or a run
     that did not finish, and :class:`DamagedStoreError` (a kind of it) naming each damaged
@@ -497,7 +526,11 @@ def open_sweep(path: str | Path) -> tuple[xr.Dataset, dict[str, Any]]:
         raise NotAStoreError(f"{path}: not a PASIM-graph store ({exc})") from None
     if "sweep_0" not in tree.children:
         raise NotAStoreError(f"{path}: no sweep_0 group; is this a PASIM-graph store?")
-    return tree["sweep_0"].to_dataset(), {str(k): v for k, v in tree.attrs.items()}
+    group = f"sweep_{index}"
+    if group not in tree.children:
+        held = sorted(str(n) for n in tree.children if str(n).startswith("sweep_"))
+        raise NotAStoreError(f"{path}: no sweep {index}; it holds {', '.join(held)}")
+    return tree[group].to_dataset(), {str(k): v for k, v in tree.attrs.items()}
 
 
 def open_volume(path: str | Path) -> xr.DataTree:
@@ -520,54 +553,3 @@ def open_volume(path: str | Path) -> xr.DataTree:
         )
     with _quiet():
         return xr.open_datatree(path, engine="zarr")
-
-
-def summarize(sweep: xr.Dataset) -> dict[str, dict[str, Any]]:
-    """Bias and standard deviation of every error field a scorer wrote into the sweep.
-
-    Error fields carry ``pasim_role = "error"`` and the requirement they are judged against;
-    a field with ``pasim_role = "scored"`` marks the gates that met the scoring rule, so that
-    scored gates without an estimate (undefined, e.g. noise-corrected power <= 0) are counted.
-    """
-    scored_vars = [v for v in sweep.data_vars.values() if v.attrs.get("pasim_role") == "scored"]
-    n_scored = int(np.asarray(scored_vars[0].values).sum()) if scored_vars else None
-    # Gates a scorer set apart (e.g. overlaid by another trip): counted, not scored.
-    excluded = [v for v in sweep.data_vars.values() if v.attrs.get("pasim_role") == "excluded"]
-    extra = {
-        "excluded": sum(int(np.asarray(v.values).sum()) for v in excluded),
-        "excluded_reason": "; ".join(str(v.attrs.get("excluded", "")) for v in excluded),
-    }
-    out: dict[str, dict[str, Any]] = {}
-    for name, var in sweep.data_vars.items():
-        if var.attrs.get("pasim_role") != "error":
-            continue
-        values = np.asarray(var.values, dtype=np.float64)
-        finite = np.isfinite(values)
-        n = int(finite.sum())
-        # Scored gates whose truth has this moment but whose estimate is undefined.
-        unestimated = 0
-        truth_name = var.attrs.get("truth_variable")
-        if scored_vars and truth_name in sweep:
-            has_truth = np.isfinite(np.asarray(sweep[truth_name].values))
-            unestimated = int(
-                (np.asarray(scored_vars[0].values).astype(bool) & has_truth & ~finite).sum()
-            )
-        values = values[finite]
-        bias = float(values.mean()) if n else float("nan")
-        std = float(values.std(ddof=1)) if n > 1 else float("nan")
-        req_b = float(var.attrs["requirement_bias"])
-        req_s = float(var.attrs["requirement_std"])
-        out[str(var.attrs.get("moment", name))] = {
-            "bias": bias,
-            "std": std,
-            "count": n,
-            "units": var.attrs.get("units", ""),
-            "requirement_bias": req_b,
-            "requirement_std": req_s,
-            "pass": bool(n > 1 and abs(bias) <= req_b and std <= req_s),
-            "scored_gates": n_scored if n_scored is not None else n,
-            "unestimated": unestimated,
-            "scored": var.attrs.get("scored", ""),
-            **(extra if excluded else {}),
-        }
-    return out

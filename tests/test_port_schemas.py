@@ -278,15 +278,26 @@ def _graph_variants() -> list[tuple[str, Any, RunOptions]]:
 def test_library_blocks_return_what_they_declare(label, source, options, tmp_path, monkeypatch):
     """LocalExecutor checks every value a block returns against its output ports; each block
     of the graph is checked (counted), and none fails."""
-    sets = ["scan.pulses=8"]
+    sets, more = ["scan.pulses=8"], []
     if isinstance(source, tuple):
         source, more = source
-        sets += more
     if isinstance(source, str):
         path = tmp_path / "graph.yaml"
         path.write_text(source)
         source = path
-    args = argparse.Namespace(graph=str(source), truth=None, sector="280:282", set=sets)
+    # Two beams of eight pulses, however the scan defines its beams.
+    spec = read(source)
+    scan = spec.blocks["scan"].type
+    # The first two degrees of the graph's own sector (an array's face points there).
+    start = float(spec.blocks["scan"].params.get("azimuth_start_deg", 280.0))
+    sector: str | None = f"{start:g}:{start + 2:g}"
+    if scan == "scan.rhi":
+        sets, sector = [*sets, "scan.elevation_stop_deg=1.0"], None
+    elif scan == "scan.schedule":
+        beams = tmp_path / "beams.csv"
+        beams.write_text("azimuth_deg,elevation_deg,pulses,prt_s\n280,0.5,8,0.001\n281,1,8,0.001\n")
+        sets, sector = [f"scan.path={beams}"], None
+    args = argparse.Namespace(graph=str(source), truth=None, sector=sector, set=sets + more)
     graph = cli.load_graph(args)
     checked: dict[str, int] = {}
     real = executor._check_outputs

@@ -246,7 +246,7 @@ def test_failed_overwrite_leaves_the_old_store_byte_for_byte(
         bad.write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(4096))
         args += ["--truth", str(bad)]
     else:
-        import pasim_graph.dask_executor as dx
+        import pasim_graph.run_checks as checks
 
         real = shutil.disk_usage
 
@@ -254,7 +254,7 @@ def test_failed_overwrite_leaves_the_old_store_byte_for_byte(
             usage = real(path)
             return type(usage)(usage.total, usage.used, 1000)
 
-        monkeypatch.setattr(dx.shutil, "disk_usage", tiny)
+        monkeypatch.setattr(checks.shutil, "disk_usage", tiny)
     code, err = pasim(capsys, *args)
     assert code == 2, err
     assert "Traceback" not in err

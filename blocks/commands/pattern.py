@@ -356,15 +356,25 @@ SCAN_COLUMNS = (
 
 
 def scan_beams(graph: Any) -> list[tuple[float, float]]:
-    """(azimuth, elevation) of every beam of the graph's scan block, as a run forms them."""
+    """(azimuth, elevation) of every beam of every sweep of the graph's scan block (a PPI's
+    nominal azimuths, a volume's cuts, an RHI's elevations, a schedule's beams), in scan order.
+    """
+    from pasim_graph import Chunk
     from pasim_graph.cli import UserError
 
     scans = graph.by_role("scan")
     if len(scans) != 1:
         raise UserError(f"--scan needs one scan block; the graph has {len(scans) or 'none'}")
-    scan = graph.classes[scans[0]](name=scans[0], **graph.params[scans[0]])
-    elevation = float(graph.value(scans[0], "elevation_deg"))
-    return [(float(a), elevation) for a in scan.nominal_azimuths()]
+    name = scans[0]
+    cls = graph.classes[name]
+    out: list[tuple[float, float]] = []
+    for overrides in cls.scan_sweeps(dict(graph.params[name])):
+        scan = cls(name=name, **{**graph.params[name], **overrides})
+        n = scan.beam_count()
+        beams = scan.process({}, Chunk(beams=np.arange(n), block_name=name))["beams"]
+        az, el = beams["azimuth"].values, beams["elevation"].values
+        out += [(float(a), float(e)) for a, e in zip(az, el, strict=True)]
+    return out
 
 
 def scan_table(graph: Any, name: str, args: argparse.Namespace) -> int:

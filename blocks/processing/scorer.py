@@ -21,6 +21,7 @@ from ..signals import (
     SIGNAL_POWER,
     TRUTH,
 )
+from ..truth.volume import beam_truth, is_volume
 
 #: NEXRAD data-quality requirements (paper Table 3): bias, standard deviation, units.
 REQUIREMENTS = {
@@ -34,7 +35,8 @@ REQUIREMENTS = {
 
 
 class NexradScorer(Block):
-    """Errors of each moment against the raw truth gate each beam is centred on.
+    """Errors of each moment against the raw truth gate each beam is centred on (with a volume
+    truth, at the beam's own elevation, as the truth interpolates between its sweeps).
 
     A gate is scored where the truth reflectivity is at least ``min_reflectivity_dbz`` and the
     expected SNR at least ``min_snr_db`` (so runs and systems are comparable), and where both
@@ -88,7 +90,14 @@ class NexradScorer(Block):
         nearest = nearest_radial(az, radials)
         with np.errstate(divide="ignore"):
             snr = 10 * np.log10(inputs["signal_power"][..., 0] / inputs["noise_power"][..., 0])
-        ref = truth.isel(radial=nearest)
+        if is_volume(truth):
+            # A volume truth: each beam against the truth at its own radial and elevation.
+            ref = beam_truth(truth, az, beams["elevation"].values)
+            between = truth.attrs.get("elevation_interpolation", "linear")
+            truth_is = f"the radial nearest each beam at its elevation ({between} between sweeps)"
+        else:
+            ref = truth.isel(radial=nearest)
+            truth_is = "the raw radial nearest each beam"
         n_est = est.sizes["range"]
         dbz_t = ref["DBZH"].values[:, :n_est]
         blind = float(est.attrs["blind_range_m"])
@@ -107,8 +116,8 @@ class NexradScorer(Block):
             scored &= ~overlaid
         rule = (
             f"truth DBZH >= {self.p['min_reflectivity_dbz']:g} dBZ and expected SNRH >= "
-            f"{self.p['min_snr_db']:g} dB, beyond the blind range ({blind:g} m); truth = the "
-            f"raw radial nearest each beam; calibration: {est.attrs['calibration']}"
+            f"{self.p['min_snr_db']:g} dB, beyond the blind range ({blind:g} m); truth = "
+            f"{truth_is}; calibration: {est.attrs['calibration']}"
         )
         if "transmit_power" in est.attrs:
             rule += f"; transmit power: {est.attrs['transmit_power']}"

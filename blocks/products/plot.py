@@ -92,6 +92,29 @@ def ppi_mesh(sweep: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
     return r * np.sin(a), r * np.cos(a)
 
 
+def is_rhi(sweep: xr.Dataset) -> bool:
+    """The sweep is an RHI (FM-301 ``sweep_mode``), drawn as range against height."""
+    return "sweep_mode" in sweep and str(sweep["sweep_mode"].values) == "rhi"
+
+
+def rhi_mesh(sweep: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
+    """Ground distance and height above the radar (km) of the gate corners of an RHI, along
+    the 4/3-earth beam path (beams along ``elevation``)."""
+    from ..scans.beams import beam_height_m, ground_range_m
+
+    if "elevation" not in sweep.dims:
+        raise ValueError("an RHI needs beams along elevation")
+    el = _edges(np.asarray(sweep["elevation"].values, dtype=np.float64))
+    rng = _edges(np.asarray(sweep["range"].values, dtype=np.float64))
+    e, r = np.meshgrid(el, rng, indexing="ij")
+    return ground_range_m(r, e) / 1000.0, beam_height_m(r, e) / 1000.0
+
+
+def mesh(sweep: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
+    """Gate corners of a sweep in km: range-height for an RHI, east-north for the rest."""
+    return rhi_mesh(sweep) if is_rhi(sweep) else ppi_mesh(sweep)
+
+
 def _limits(sweep: xr.Dataset, name: str) -> tuple[float, float]:
     style = STYLES[name]
     if name == "VRADH":
@@ -105,7 +128,9 @@ def _limits(sweep: xr.Dataset, name: str) -> tuple[float, float]:
     return style.vmin, style.vmax
 
 
-def _extent(sweep: xr.Dataset, names: list[str], x: np.ndarray, y: np.ndarray) -> list[float]:
+def _extent(
+    sweep: xr.Dataset, names: list[str], x: np.ndarray, y: np.ndarray, exact: bool = False
+) -> list[float]:
     """The box around the weather: gates where the truth has data (a margin of 5 %).
 
     An estimate exists at every gate, noise included, so it would always ask for the whole
@@ -118,6 +143,12 @@ def _extent(sweep: xr.Dataset, names: list[str], x: np.ndarray, y: np.ndarray) -
             has |= np.isfinite(np.asarray(sweep[v].values, dtype=np.float64))
     if not has.any():
         xs, ys = x, y
+    elif exact:
+        # The corners of the gates with data themselves (an RHI: the index box's corners
+        # would reach the top beam's far gates, tens of km up).
+        rows, cols = np.nonzero(has)
+        xs = np.concatenate([x[rows + i, cols + j] for i in (0, 1) for j in (0, 1)])
+        ys = np.concatenate([y[rows + i, cols + j] for i in (0, 1) for j in (0, 1)])
     else:
         rows, cols = np.nonzero(has)
         r0, r1 = rows.min(), rows.max() + 1
@@ -161,9 +192,10 @@ def moment_row(
 ) -> None:
     """Draw truth | estimate | error of one moment on three axes of ``fig``."""
     style = STYLES[name]
-    x, y = ppi_mesh(sweep)
+    x, y = mesh(sweep)
+    rhi = is_rhi(sweep)
     vmin, vmax = _limits(sweep, name)
-    extent = _extent(sweep, [name], x, y)
+    extent = _extent(sweep, [name], x, y, exact=rhi)
     lim = style.error_limit
     common = {"mesh": (x, y)}
     _panel(
@@ -221,9 +253,18 @@ def moment_row(
         ax.ignore_existing_data_limits = True
         ax.update_datalim([(extent[0], extent[2]), (extent[1], extent[3])])
         ax.autoscale_view(tight=True)
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.set_xlabel("km east of the radar")
-    axes[0].set_ylabel(f"{name}\nkm north of the radar")
+        if rhi:
+            # Heights are tens of times shorter than ranges: the height axis is stretched.
+            ax.set_ylim(0.0, extent[3])
+            ax.set_xlabel("km along the ground")
+        else:
+            ax.set_aspect("equal", adjustable="datalim")
+            ax.set_xlabel("km east of the radar")
+    if rhi:
+        az = float(sweep["sweep_fixed_angle"].values) if "sweep_fixed_angle" in sweep else 0.0
+        axes[0].set_ylabel(f"{name}\nkm above the radar (4/3 earth), azimuth {az:.1f} deg")
+    else:
+        axes[0].set_ylabel(f"{name}\nkm north of the radar")
 
 
 def _figure(rows: int) -> Any:
@@ -278,14 +319,27 @@ def png_bytes(fig: Any, dpi: int = 90) -> bytes:
 
 
 def title_of(path: str | Path, attrs: dict[str, Any], sweep: xr.Dataset) -> str:
+    if is_rhi(sweep):
+        steps = np.asarray(sweep["elevation"].values)
+        at = float(np.asarray(sweep["azimuth"].values)[0])
+        sector = f"RHI at azimuth {at:.1f} deg, elevation {steps.min():.1f}-{steps.max():.1f} deg, "
+        graph = attrs.get("graph_file", "")
+        return f"{Path(path).name}: {graph}, {sector}seed {attrs.get('seed', '?')}"
     az = np.asarray(sweep["azimuth"].values) if "azimuth" in sweep else np.array([])
+    el = np.asarray(sweep["elevation"].values) if "elevation" in sweep else np.array([])
     sector = f"azimuth {az.min():.1f}-{az.max():.1f} deg, " if az.size else ""
+    if el.size and int(np.asarray(sweep.get("sweep_number", 0)).item()) > 0:
+        sector += f"elevation {float(np.nanmean(el)):.1f} deg, "
     graph = attrs.get("graph_file", "")
     return f"{Path(path).name}: {graph}, {sector}seed {attrs.get('seed', '?')}"
 
 
 def plot_store(
-    path: str | Path, out: str | Path, fields: list[str] | None = None, dpi: int = 90
+    path: str | Path,
+    out: str | Path,
+    fields: list[str] | None = None,
+    dpi: int = 90,
+    sweep_index: int = 0,
 ) -> list[str]:
     """Draw a run to a PNG: one row per moment, truth | estimate | error.
 
@@ -299,6 +353,8 @@ def plot_store(
         Moments to draw, in this order; default every moment the store has.
     dpi : int
         Resolution of the PNG.
+    sweep_index : int
+        Which sweep of a volume (``sweep_N``) to draw.
 
     Returns
     -------
@@ -314,7 +370,7 @@ def plot_store(
     """
     from pasim_graph.store import summarize
 
-    sweep, attrs = open_sweep(path)
+    sweep, attrs = open_sweep(path, sweep_index)
     names, notes = available(sweep, fields)
     if not names:
         raise ValueError(f"{path}: none of the fields can be drawn ({'; '.join(notes)})")

@@ -5,7 +5,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
@@ -13,6 +12,7 @@ from ..angles import circular_difference, nearest_radial
 from ..cf import cf_attributes
 from ..signals import BEAMS, TRUTH
 from ..timing import STAGGERS, sz_code
+from .beams import beam_dataset, seconds, site_and_start
 
 
 class PPISector(Block):
@@ -57,6 +57,13 @@ class PPISector(Block):
         choices=("none", "sz8_64", "random"),
         doc="transmit phase code: none, SZ(8/64) (Sachidananda and Zrnic 1999), or random",
     )
+    time_offset_s = Param(
+        0.0,
+        units="s",
+        min=0.0,
+        max=1e6,
+        doc="start of the sweep after the truth's start (a volume sets it for each cut)",
+    )
 
     @classmethod
     def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
@@ -89,8 +96,9 @@ class PPISector(Block):
 
     def setup(self) -> None:
         self._cf = cf_attributes()
-        span = (self.p["azimuth_stop_deg"] - self.p["azimuth_start_deg"]) % 360.0 or 360.0
-        self.n_beams = max(1, round(span / self.p["beam_spacing_deg"]))
+        self.n_beams = sector_beams(
+            self.p["azimuth_start_deg"], self.p["azimuth_stop_deg"], self.p["beam_spacing_deg"]
+        )
 
     def beam_count(self) -> int:
         return self.n_beams
@@ -109,58 +117,30 @@ class PPISector(Block):
         return (self.p["azimuth_start_deg"] + step * (np.arange(self.n_beams) + 0.5)) % 360.0
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        cf = self._cf
         az = self.nominal_azimuths()
         truth = inputs.get("truth")
-        start = np.datetime64("2000-01-01T00:00:00", "ns")
-        site = {"latitude": 0.0, "longitude": 0.0, "altitude": 0.0}
-        if truth is not None:
-            if self.p["align_to_truth"]:
-                az = _snap(az, truth["azimuth"].values)
-            start = np.datetime64(
-                str(truth.attrs.get("time_coverage_start", start)).rstrip("Z"), "ns"
-            )
-            site = {k: float(truth.attrs.get(k, 0.0)) for k in site}
+        start, site = site_and_start(inputs, self.p["time_offset_s"])
+        if truth is not None and self.p["align_to_truth"]:
+            az = _snap(az, truth["azimuth"].values)
         beams = chunk.beams
         prt = self.p["prt_s"]
         if self.p["stagger"] != "uniform":
             # The dwell's pulses alternate T1 and T2 = T1 / ratio apart.
             prt = prt * (1 + 1 / float(STAGGERS[self.p["stagger"]])) / 2
         dwell = self.p["pulses"] * prt
-        time = start + (beams * dwell * 1e9).astype("timedelta64[ns]")
-        elevation = np.full(beams.size, self.p["elevation_deg"])
-        ds = xr.Dataset(
-            {
-                "sweep_number": ((), 0),
-                "sweep_mode": ((), "azimuth_surveillance"),
-                "sweep_fixed_angle": ((), float(self.p["elevation_deg"]), dict(cf.elevation)),
-                "prt": (
-                    "beam",
-                    np.full(beams.size, self.p["prt_s"]),
-                    {"units": "seconds", "long_name": "pulse repetition time"},
-                ),
-                "pulses": ((), int(self.p["pulses"]), {"long_name": "pulses per dwell"}),
-                "scan_rate": (
-                    "beam",
-                    np.full(beams.size, self.p["beam_spacing_deg"] / dwell),
-                    {"units": "degrees/s", "long_name": "azimuth rate of the scan"},
-                ),
-                # Volume metadata FM-301 asks for at the root (the store moves it there).
-                "time_coverage_start": ((), _iso(start)),
-                "time_coverage_end": (
-                    (),
-                    _iso(start + np.timedelta64(int(self.n_beams * dwell * 1e9), "ns")),
-                ),
-                "volume_number": ((), 0),
-                "platform_type": ((), "fixed"),
-                "instrument_type": ((), "radar"),
-            },
-            coords={
-                "azimuth": ("beam", az[beams].astype(np.float64), dict(cf.azimuth)),
-                "elevation": ("beam", elevation, dict(cf.elevation)),
-                "time": ("beam", time, {"standard_name": "time"}),
-                **{k: ((), v) for k, v in site.items()},
-            },
+        ds = beam_dataset(
+            self._cf,
+            azimuth=az[beams],
+            elevation=np.full(beams.size, float(self.p["elevation_deg"])),
+            time=start + (beams * dwell * 1e9).astype("timedelta64[ns]"),
+            prt=np.full(beams.size, self.p["prt_s"]),
+            pulses=int(self.p["pulses"]),
+            scan_rate=np.full(beams.size, self.p["beam_spacing_deg"] / dwell),
+            sweep_mode="azimuth_surveillance",
+            fixed_angle=float(self.p["elevation_deg"]),
+            start=start,
+            end=start + seconds(self.n_beams * dwell),
+            site=site,
         )
         if self.p["stagger"] != "uniform":
             ds["prt_ratio"] = (
@@ -174,10 +154,14 @@ class PPISector(Block):
                 np.stack([self._code(chunk, int(b)) for b in beams]),
                 {"units": "radians", "long_name": "transmit phase of each pulse"},
             )
-        ds["latitude"].attrs = dict(cf.latitude)
-        ds["longitude"].attrs = dict(cf.longitude)
-        ds["altitude"].attrs = dict(cf.altitude)
         return {"beams": ds}
+
+
+def sector_beams(start_deg: float, stop_deg: float, spacing_deg: float) -> int:
+    """Beams of a sector scanned clockwise from ``start_deg`` to ``stop_deg`` (equal ends: the
+    full circle)."""
+    span = (stop_deg - start_deg) % 360.0 or 360.0
+    return max(1, round(span / spacing_deg))
 
 
 def _nearest(az: np.ndarray, radials: np.ndarray) -> np.ndarray:
@@ -192,7 +176,3 @@ def _snap(az: np.ndarray, radials: np.ndarray) -> np.ndarray:
     """
     shift = circular_difference(_nearest(az[:1], radials)[0], az[0], 360.0)
     return _nearest((az + shift) % 360.0, radials)
-
-
-def _iso(t: np.datetime64) -> str:
-    return str(np.datetime_as_string(t, unit="s")) + "Z"

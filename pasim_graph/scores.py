@@ -1,0 +1,193 @@
+"""Scores of a run: bias and standard deviation of every error field a scorer wrote, for each
+sweep of a store and pooled over the whole volume, with the volume's time on target (the sum
+of the dwells: what a phased array's update time is made of)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+#: The store attribute (root and each sweep) holding the time on target, in seconds.
+TIME_ON_TARGET = "pasim_time_on_target_s"
+
+
+def time_on_target(sweep: xr.Dataset) -> float:
+    """Sum over the beams of pulses x PRT, in seconds (0 when the sweep says neither).
+
+    A staggered scan's dwell alternates T1 and T2 = T1 / ratio (``prt_ratio``), so its mean
+    PRT is T1 (1 + 1 / ratio) / 2. ``pulses`` is one number per sweep or one per beam.
+    """
+    if "prt" not in sweep.variables or "pulses" not in sweep.variables:
+        return 0.0
+    prt = np.asarray(sweep["prt"].values, dtype=np.float64)
+    if "prt_ratio" in sweep.variables:
+        prt = prt * (1.0 + 1.0 / np.asarray(sweep["prt_ratio"].values, dtype=np.float64)) / 2.0
+    pulses = np.broadcast_to(np.asarray(sweep["pulses"].values, dtype=np.float64), prt.shape)
+    return float(np.sum(pulses * prt))
+
+
+def summarize(*sweeps: xr.Dataset) -> dict[str, dict[str, Any]]:
+    """Bias and standard deviation of every error field a scorer wrote, pooled over the gates
+    of the ``sweeps`` given (one sweep, or every sweep of a volume).
+
+    Error fields carry ``pasim_role = "error"`` and the requirement they are judged against;
+    a field with ``pasim_role = "scored"`` marks the gates that met the scoring rule, so that
+    scored gates without an estimate (undefined, e.g. noise-corrected power <= 0) are counted.
+    """
+    n_scored: int | None = None
+    excluded_n, any_excluded = 0, False
+    reasons: list[str] = []
+    pooled: dict[str, dict[str, Any]] = {}
+    for sweep in sweeps:
+        scored = [v for v in sweep.data_vars.values() if v.attrs.get("pasim_role") == "scored"]
+        if scored:
+            n_scored = (n_scored or 0) + int(np.asarray(scored[0].values).sum())
+        # Gates a scorer set apart (e.g. overlaid by another trip): counted, not scored.
+        excluded = [v for v in sweep.data_vars.values() if v.attrs.get("pasim_role") == "excluded"]
+        if excluded:
+            any_excluded = True
+            excluded_n += sum(int(np.asarray(v.values).sum()) for v in excluded)
+            reason = "; ".join(str(v.attrs.get("excluded", "")) for v in excluded)
+            if reason not in reasons:
+                reasons.append(reason)
+        for name, var in sweep.data_vars.items():
+            if var.attrs.get("pasim_role") != "error":
+                continue
+            values = np.asarray(var.values, dtype=np.float64)
+            finite = np.isfinite(values)
+            # Scored gates whose truth has this moment but whose estimate is undefined.
+            unestimated = 0
+            truth_name = var.attrs.get("truth_variable")
+            if scored and truth_name in sweep:
+                has_truth = np.isfinite(np.asarray(sweep[truth_name].values))
+                unestimated = int(
+                    (np.asarray(scored[0].values).astype(bool) & has_truth & ~finite).sum()
+                )
+            key = str(var.attrs.get("moment", name))
+            entry = pooled.setdefault(key, {"values": [], "unestimated": 0, "attrs": var.attrs})
+            entry["values"].append(values[finite].ravel())
+            entry["unestimated"] += unestimated
+    extra = {"excluded": excluded_n, "excluded_reason": "; ".join(reasons)}
+    out: dict[str, dict[str, Any]] = {}
+    for key, entry in pooled.items():
+        values = np.concatenate(entry["values"])
+        n = int(values.size)
+        attrs = entry["attrs"]
+        bias = float(values.mean()) if n else float("nan")
+        std = float(values.std(ddof=1)) if n > 1 else float("nan")
+        req_b = float(attrs["requirement_bias"])
+        req_s = float(attrs["requirement_std"])
+        out[key] = {
+            "bias": bias,
+            "std": std,
+            "count": n,
+            "units": attrs.get("units", ""),
+            "requirement_bias": req_b,
+            "requirement_std": req_s,
+            "pass": bool(n > 1 and abs(bias) <= req_b and std <= req_s),
+            "scored_gates": n_scored if n_scored is not None else n,
+            "unestimated": entry["unestimated"],
+            "scored": attrs.get("scored", ""),
+            **(extra if any_excluded else {}),
+        }
+    return out
+
+
+def sweep_names(tree: xr.DataTree) -> list[str]:
+    """The FM-301 sweep groups of a volume, in order (``sweep_0``, ``sweep_1``, ...)."""
+    names = [str(n) for n in tree.children if str(n).startswith("sweep_")]
+    return sorted(names, key=lambda n: int(n.split("_", 1)[1]) if n[6:].isdigit() else 1 << 30)
+
+
+def volume_scores(tree: xr.DataTree) -> dict[str, Any]:
+    """Each sweep's scores and time on target, and the volume's (scores pooled over every
+    sweep's gates, time on target summed), as JSON-ready data."""
+    sweeps = {name: tree[name].to_dataset() for name in sweep_names(tree)}
+    out: dict[str, Any] = {"sweeps": {}}
+    for name, ds in sweeps.items():
+        out["sweeps"][name] = {
+            "fixed_angle_deg": _fixed_angle(ds),  # elevation of a PPI, azimuth of an RHI
+            "sweep_mode": str(ds["sweep_mode"].values) if "sweep_mode" in ds else "",
+            "beams": int(ds.sizes.get(_beam_dim(ds), 0)),
+            "time_on_target_s": time_on_target(ds),
+            "scores": summarize(ds),
+        }
+    out["time_on_target_s"] = sum(s["time_on_target_s"] for s in out["sweeps"].values())
+    out["scores"] = summarize(*sweeps.values())
+    return out
+
+
+def _fixed_angle(ds: xr.Dataset) -> float | None:
+    if "sweep_fixed_angle" not in ds:
+        return None
+    return float(ds["sweep_fixed_angle"].values)
+
+
+def _beam_dim(ds: xr.Dataset) -> str:
+    return next((d for d in ("azimuth", "elevation", "time") if d in ds.dims), "")
+
+
+def print_scores(scores: dict[str, dict[str, Any]], stream: Any) -> None:
+    """The score table of one sweep or a volume, with what was not scored and why."""
+    if not scores:
+        return
+    print(
+        f"{'moment':8} {'bias':>9} {'std':>9} {'count':>8}  {'req bias/std':>14}  pass", file=stream
+    )
+    for name, s in scores.items():
+        req = f"{s['requirement_bias']:g}/{s['requirement_std']:g}"
+        print(
+            f"{name:8} {s['bias']:9.4f} {s['std']:9.4f} {s['count']:8d}  {req:>14}  "
+            f"{'yes' if s['pass'] else 'no'}",
+            file=stream,
+        )
+    first = next(iter(scores.values()))
+    if first.get("scored"):
+        print(f"scored gates: {first['scored']}", file=stream)
+    if first.get("excluded"):
+        print(
+            f"not scored: {first['excluded']} gates that meet the rule, {first['excluded_reason']}",
+            file=stream,
+        )
+    n = first.get("scored_gates", first["count"])
+    if n == 0:
+        print(
+            "no gate met the scoring rule: nothing to score (is the sector all masked?)",
+            file=stream,
+        )
+        return
+    for name, s in scores.items():
+        if s.get("unestimated"):
+            print(
+                f"{name}: {s['unestimated']} of {n} scored gates have no estimate (censored "
+                "below the processor's SNR threshold, or undefined: noise-corrected power <= 0)",
+                file=stream,
+            )
+
+
+def print_volume(volume: dict[str, Any], stream: Any) -> None:
+    """A store's score tables: one sweep's as before; a volume's per sweep, then pooled. The
+    time on target follows each."""
+    sweeps = volume["sweeps"]
+    if len(sweeps) <= 1:
+        print_scores(volume["scores"], stream)
+        if volume["time_on_target_s"]:
+            print(f"time on target: {volume['time_on_target_s']:.3f} s", file=stream)
+        return
+    for name, s in sweeps.items():
+        angle = s["fixed_angle_deg"]
+        at = f" at {angle:g} deg" if angle is not None else ""
+        print(
+            f"{name} ({s['sweep_mode'] or 'sweep'}{at}, {s['beams']} beams, time on target "
+            f"{s['time_on_target_s']:.3f} s)",
+            file=stream,
+        )
+        print_scores(s["scores"], stream)
+        print(file=stream)
+    print(
+        f"volume ({len(sweeps)} sweeps, time on target {volume['time_on_target_s']:.3f} s)",
+        file=stream,
+    )
+    print_scores(volume["scores"], stream)
