@@ -70,16 +70,13 @@ def test_plot_draws_an_rhi_as_range_height(store, tmp_path, capsys):
 
 def test_an_rhi_gives_the_same_numbers_whatever_the_chunking(tmp_path):
     """Beams at one azimuth, drawn by the default (random) level: chunks of 1 and of 3 store
-    the same values (on the single-sweep truth, the truth's own widths: the scan and the store
-    are what is tested; the channel's width model takes the scan broadening from each chunk's
-    first beam's pattern, which differs in elevation, and so differs by chunk at the level of
-    float32 rounding)."""
+    the same values (the volume truth and the physical width model, whose scan modulation is
+    each beam's own)."""
     import xarray as xr
 
     from pasim_graph.cli import main
 
     args = ["run", RHI, "--set", "scan.elevation_stop_deg=2", "--outputs", "DBZH,ZDR"]
-    args += ["--set", "truth.sweeps=single", "--set", "weather.width_model=truth"]
     for chunk in ("1", "3"):
         assert main([*args, "--chunk", chunk, "--out", str(tmp_path / chunk)]) == 0
     a, b = (xr.open_datatree(tmp_path / c, engine="zarr")["sweep_0"] for c in ("1", "3"))

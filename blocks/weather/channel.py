@@ -274,43 +274,49 @@ class WeatherChannel(WidthParams, Block):
         )
         n_b, n_g = beams.sizes["beam"], rng_m.size
 
-        # What depends only on the truth and the range response is prepared once and reused
-        # by every chunk (and, with threads, by every thread): a pure function of the inputs,
-        # memoised.
+        # What depends only on the truth, the range response and the beam's own scan
+        # modulation is prepared once and reused by every beam and chunk that share them (and,
+        # with threads, by every thread): a pure function of the inputs, memoised.
         key: tuple[Any, ...] = (id(truth), id(response), k0, prt, lam, pulses, method, dtype)
         key += (self.p["range_support_db"], self.p["drops_per_cell"])
         gamma = self.p["drop_sizes"] == "gamma" and method == "monte_carlo"
         key += (gamma, self.p["temperature_c"])
         volume = is_volume(truth)
         broadening = scan_broadening(beams, pattern, lam, self.p["antenna_motion"])
-        key += (round(broadening, 6),)
-        if self._prepared is None or self._prepared[0] != key:
-            # A volume truth: the cells of every sweep, sweep-major (row s x radials + j).
-            seen = flat_volume(truth) if volume else truth
-            ranges = range_model(
-                response,
-                gate_m,
-                lam,
-                _largest_speed(seen),
-                floor_db=self.p["range_support_db"],
-            )
-            sizes = (
-                DropSizes.build(self.p["frequency_hz"], self.p["temperature_c"]) if gamma else None
-            )
-            cells = TruthCells(
-                radar_widths(seen, self.p, broadening),
-                ranges,
-                k0,
-                prt,
-                lam,
-                pulses,
-                method,
-                self.p["drops_per_cell"],
-                dtype,
-                sizes,
-            )
-            self._prepared = (key, (ranges, cells))
-        ranges, cells = self._prepared[1]
+
+        def prepared(beam_broadening: float) -> tuple[Any, TruthCells]:
+            full = (*key, float(beam_broadening))
+            if self._prepared is None or self._prepared[0] != full:
+                # A volume truth: the cells of every sweep, sweep-major (row s x radials + j).
+                seen = flat_volume(truth) if volume else truth
+                ranges = range_model(
+                    response,
+                    gate_m,
+                    lam,
+                    _largest_speed(seen),
+                    floor_db=self.p["range_support_db"],
+                )
+                sizes = (
+                    DropSizes.build(self.p["frequency_hz"], self.p["temperature_c"])
+                    if gamma
+                    else None
+                )
+                cells = TruthCells(
+                    radar_widths(seen, self.p, float(beam_broadening)),
+                    ranges,
+                    k0,
+                    prt,
+                    lam,
+                    pulses,
+                    method,
+                    self.p["drops_per_cell"],
+                    dtype,
+                    sizes,
+                )
+                self._prepared = (full, (ranges, cells))
+            return self._prepared[1]
+
+        ranges, cells = prepared(broadening[0] if broadening.size else 0.0)
 
         d_az = pattern["azimuth_offset_deg"].values
         d_el = pattern["elevation_offset_deg"].values
@@ -322,7 +328,10 @@ class WeatherChannel(WidthParams, Block):
         iq = np.zeros((n_b, 2, n_g, 0 if method == "expected" else pulses), cdtype)
         corr = np.zeros((n_b, n_g, len(CORRELATION_PRODUCTS)), np.complex128)
         drawn = 0 if method == "expected" else len(receive_channels(mode, need_v))
-        for i, beam in enumerate(chunk.beams):
+        # Beams of equal scan modulation one after another: their cells are prepared once.
+        for i in np.argsort(broadening, kind="stable"):
+            beam = chunk.beams[i]
+            ranges, cells = prepared(broadening[i])
             az_b = float(beams["azimuth"].values[i])
             el_b = float(beams["elevation"].values[i])
             delta = circular_difference(az_truth, np.asarray(az_b), 360.0)

@@ -137,19 +137,24 @@ def antenna_rotates(pattern: xr.Dataset, motion: str) -> bool:
 
 def scan_broadening(
     beams: xr.Dataset, pattern: xr.Dataset, wavelength_m: float, motion: str
-) -> float:
-    """The simulated radar's scan modulation (m/s): alpha lambda sqrt(ln 2) / (2 pi theta_1)
-    with the scan's mean azimuth rate over the chunk and theta_1 measured on the first beam's H
-    pattern; 0 for an electronically stepped beam or a scan without a rate."""
+) -> np.ndarray:
+    """Each beam's scan modulation (m/s): alpha lambda sqrt(ln 2) / (2 pi theta_1) with the
+    beam's own azimuth rate and theta_1 measured on its own H pattern; 0 for an
+    electronically stepped beam or a scan without a rate. Per beam, so that a beam's draw does
+    not depend on which chunk it falls in. Rounded to 1e-4 m/s, so that beams which differ
+    only by rounding share their prepared cells."""
+    n = beams.sizes["beam"]
     if not antenna_rotates(pattern, motion) or "scan_rate" not in beams:
-        return 0.0
-    theta = one_way_beamwidth(
-        pattern["power"].values[0, 0],
-        pattern["azimuth_offset_deg"].values,
-        pattern["elevation_offset_deg"].values,
-    )
-    rate = float(np.mean(np.abs(beams["scan_rate"].values)))
-    return scan_modulation_width(rate, wavelength_m, theta)
+        return np.zeros(n)
+    rates = np.abs(np.broadcast_to(beams["scan_rate"].values, (n,)))
+    d_az = pattern["azimuth_offset_deg"].values
+    d_el = pattern["elevation_offset_deg"].values
+    power = pattern["power"].values
+    out = np.empty(n)
+    for i in range(n):
+        theta = one_way_beamwidth(power[i, 0], d_az, d_el)
+        out[i] = scan_modulation_width(float(rates[i]), wavelength_m, theta)
+    return np.round(out, 4)
 
 
 def radar_widths(truth: xr.Dataset, params: dict[str, Any], broadening_ms: float) -> xr.Dataset:
