@@ -9,6 +9,7 @@ systems:
   - {name: cppar10, graph: cppar10_radar.yaml, set: {scan.pulses: 64}}
 cases:
   - {name: convective, truth: "", sector: "240:330", elevation: 0.5}
+  - {name: storm-3d, truth: "", sector: "240:330", elevation: 0.5, sweeps: volume}
 seeds: [0]
 sweeps:                          # optional
   - {systems: [cppar10], values: {antenna.phase_bits: [3, 4, 5]}}
@@ -53,6 +54,12 @@ class Case:
     sector: tuple[float, float]
     elevation: float
     line: int = 0
+    sweeps: str = "single"  # "volume": every sweep of the truth, weighted over elevation
+    interpolation: str = "nearest"  # between a volume's sweeps
+
+
+CASE_SWEEPS = ("single", "volume")
+CASE_INTERPOLATIONS = ("nearest", "linear")
 
 
 @dataclass
@@ -287,7 +294,7 @@ def _read_cases(study: Study, node: yaml.Node, value: Any, base: Path) -> None:
     seen: dict[str, int] = {}
     for item in _entries(study, node, "cases"):
         m = _mapping(study, item, "a case")
-        _keys(study, m, ("name", "truth", "sector", "elevation"), "case")
+        _keys(study, m, ("name", "truth", "sector", "elevation", "sweeps", "interpolation"), "case")
         entry = {k: value(v) for k, (_, v) in m.items()}
         line = _line(item)
         name = _name(study, entry, line, "case", seen)
@@ -310,7 +317,31 @@ def _read_cases(study: Study, node: yaml.Node, value: Any, base: Path) -> None:
             elevation = 0.5
         elif not -2.0 <= elevation <= 90.0:
             study.problem(line, f"case {name!r}: elevation {elevation:g} deg: outside -2 to 90")
-        study.cases.append(Case(name, truth, sector or (0.0, 360.0), float(elevation), line))
+        sweeps = _choice(study, line, name, entry, "sweeps", CASE_SWEEPS)
+        interpolation = _choice(study, line, name, entry, "interpolation", CASE_INTERPOLATIONS)
+        if "interpolation" in entry and sweeps != "volume":
+            study.problem(line, f"case {name!r}: 'interpolation' needs sweeps: volume")
+        study.cases.append(
+            Case(
+                name,
+                truth,
+                sector or (0.0, 360.0),
+                float(elevation),
+                line,
+                sweeps,
+                interpolation,
+            )
+        )
+
+
+def _choice(
+    study: Study, line: int, name: str, entry: dict[str, Any], key: str, choices: tuple[str, ...]
+) -> str:
+    given = entry.get(key, choices[0])
+    if given not in choices:
+        study.problem(line, f"case {name!r}: {key} {given!r}: expected one of {', '.join(choices)}")
+        return choices[0]
+    return str(given)
 
 
 def _read_sweeps(study: Study, node: yaml.Node, value: Any) -> None:

@@ -113,8 +113,18 @@ def case_overrides(graph: Graph, case: Case) -> tuple[dict[str, Any], list[str]]
         if "azimuth_start_deg" in params and "azimuth_stop_deg" in params:
             out[f"{t}.azimuth_start_deg"] = case.sector[0]
             out[f"{t}.azimuth_stop_deg"] = case.sector[1]
-    elif case.truth:
-        problems.append(f"has {len(truth)} truth blocks: cannot read the case's truth file")
+        if case.sweeps != "single":
+            if "sweeps" in params and case.sweeps in (params["sweeps"].choices or ()):
+                out[f"{t}.sweeps"] = case.sweeps
+                out[f"{t}.elevation_interpolation"] = case.interpolation
+            else:
+                problems.append(
+                    f"truth block '{t}' ({graph.classes[t].type_name}) cannot read the case's "
+                    f"truth as a {case.sweeps} (no such choice of its 'sweeps' parameter)"
+                )
+    elif case.truth or case.sweeps != "single":
+        what = "file" if case.truth else f"as a {case.sweeps}"
+        problems.append(f"has {len(truth)} truth blocks: cannot read the case's truth {what}")
     return out, problems
 
 

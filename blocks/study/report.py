@@ -74,6 +74,25 @@ class CaseReport:
     calibration_rows: list[dict[str, Any]] = field(default_factory=list)
     sweep_verdicts: dict[str, list[str]] = field(default_factory=dict)
     figures: dict[str, list[Figure]] = field(default_factory=dict)
+    truth: str = ""
+
+
+def case_truth_text(case: dict[str, Any] | None) -> str:
+    """What a case's weather is, in words: file, sector, elevation, and how it fills elevation."""
+    if not case:
+        return ""
+    truth = Path(case["truth"]).name if case.get("truth") else "the bundled scene (KLBB)"
+    start, stop = case.get("sector_deg", [0, 360])
+    how = (
+        "every sweep of the volume, "
+        f"{case.get('interpolation', 'nearest')} between sweeps in elevation"
+        if case.get("sweeps") == "volume"
+        else "its nearest sweep, taken as uniform in elevation"
+    )
+    return (
+        f"Truth: {truth}, azimuth {start:g} to {stop:g} deg, beams at "
+        f"{case.get('elevation_deg', 0.5):g} deg elevation; the weather is {how}."
+    )
 
 
 def _fmt(x: Any, digits: int = 3) -> str:
@@ -404,6 +423,7 @@ def build(out: Path) -> dict[str, Any]:
         for case in scores[system]:
             cases.setdefault(case, CaseReport(case, []))
     for case, rep in cases.items():
+        rep.truth = case_truth_text(meta.get("cases", {}).get(case))
         rep.table = _summary(scores, systems, case)
         rep.rankings = _rankings(scores, case)
         rep.budget_rows = _budget_rows(scores, systems, case)

@@ -320,6 +320,16 @@ def score_study(
         "beamwidths_deg": beamwidths,
         "notes": sorted(set(notes)),
         "rankings": rankings(study, result),
+        "cases": {
+            c.name: {
+                "truth": c.truth,
+                "sector_deg": list(c.sector),
+                "elevation_deg": c.elevation,
+                "sweeps": c.sweeps,
+                "interpolation": c.interpolation,
+            }
+            for c in study.cases
+        },
     }
     result["_study"]["sweeps"] = sweep_summaries(study, result, patterns or {})
     return result
