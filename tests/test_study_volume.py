@@ -9,6 +9,7 @@ with the same settings writes (an independent path to the same numbers).
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -87,7 +88,7 @@ def test_the_report_says_how_the_case_fills_elevation():
 def test_the_study_runs_the_volume_as_pasim_run_does(tmp_path):
     shutil.copy(FIX / "small_pencil.yaml", tmp_path)
     study = tmp_path / "study.yaml"
-    study.write_text(STUDY.replace("  - {name: flat", "#  - {name: flat"))
+    study.write_text(STUDY)
     out = tmp_path / "out"
     assert main(["study", str(study), "--out", str(out)]) == 0
     (estimate,) = (out / "runs").glob("narrow/storm3d/*/estimate-seed0.zarr")
@@ -120,3 +121,10 @@ def test_the_study_runs_the_volume_as_pasim_run_does(tmp_path):
     assert meta["sweeps"] == "volume" and meta["interpolation"] == "linear"
     report = (out / "report.html").read_text()
     assert "every sweep of the volume, linear between sweeps in elevation" in report
+    assert "its nearest sweep, taken as uniform in elevation" in report
+    # Two cases in one page: every id once, and the navigation reaches each case.
+    ids = re.findall(r'\bid="([^"]+)"', report)
+    assert len(ids) == len(set(ids)), sorted(i for i in ids if ids.count(i) > 1)
+    for target in re.findall(r'href="#([^"]+)"', report):
+        assert target in ids, target
+    assert 'href="#summary-storm3d"' in report
