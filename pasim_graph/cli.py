@@ -225,6 +225,13 @@ def cmd_score(args: argparse.Namespace) -> int:
     from .scores import print_volume, volume_scores
     from .store import NotAStoreError, open_sweep, open_volume
 
+    if args.sweep is not None and not (args.against or args.by):
+        raise UserError(
+            "--sweep goes with --against or --by; pasim score alone scores every sweep and the "
+            "volume"
+        )
+    if args.sweep is not None and args.sweep < 0:
+        raise UserError(f"--sweep {args.sweep}: expected a sweep number >= 0")
     if args.against or args.by:
         # Against another store or per azimuth: the radar scoring is the block library's
         # (its `compare` command), reached through the plugin registry.
@@ -360,6 +367,12 @@ def parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     sc.add_argument("store", help="a store written by `pasim run`")
     sc.add_argument("--json", action="store_true", help="print the scores as JSON")
     sc.add_argument("--against", metavar="REF.zarr", help="errors against another store's levels")
+    sc.add_argument(
+        "--sweep",
+        type=int,
+        metavar="N",
+        help="with --against or --by: which sweep of a volume (without them every sweep is scored)",
+    )
     sc.add_argument("--by", metavar="azimuth[:BIN]", help="a per-azimuth profile (BIN in deg)")
     sc.set_defaults(func=cmd_score)
     _add_studio_commands(sub)

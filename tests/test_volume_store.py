@@ -108,6 +108,29 @@ def test_score_command_reports_each_sweep_and_the_volume(volume, capsys):
     assert data["time_on_target_s"] == pytest.approx(sum(b * m * t for _, t, m, b in EXPECTED))
 
 
+def test_score_against_and_compare_name_the_sweep_of_a_volume(volume, capsys):
+    # Only one sweep is compared at a time: a volume must say which (its first sweep alone
+    # would pass for the whole volume).
+    import json
+
+    path = str(volume[0])
+    for argv in (("score", path, "--against", path), ("compare", path, path)):
+        code, _, err = pasim_out(capsys, *argv)
+        assert code == 2 and "a volume of 3 sweeps" in err and "--sweep N" in err, err
+    code, out, err = pasim_out(capsys, "score", path, "--against", path, "--sweep", "2", "--json")
+    assert code == 0, err
+    dbz = json.loads(out)["DBZH"]
+    stored = _open(volume[0])["sweep_2"].to_dataset()["error_DBZH"].values
+    assert dbz["count"] == int(np.isfinite(stored).sum()) > 0
+    assert dbz["bias"] == 0.0 and dbz["std"] == 0.0  # a sweep against itself
+    code, out, err = pasim_out(capsys, "compare", path, path, "--sweep", "2", "--json")
+    assert code == 0, err
+    code, _, err = pasim_out(capsys, "score", path, "--sweep", "1")
+    assert code == 2 and "--sweep goes with --against or --by" in err
+    code, _, err = pasim_out(capsys, "score", path, "--against", path, "--sweep", "5")
+    assert code == 2 and "no sweep 5" in err, err
+
+
 def test_sweeps_draw_their_own_random_streams():
     """Beam indices restart in each sweep: the sweep keys the streams, and the first sweep's
     are a one-sweep scan's."""

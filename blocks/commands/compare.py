@@ -39,6 +39,12 @@ class CompareCommand:
     def configure(self, parser: argparse.ArgumentParser) -> None:
         parser.add_argument("stores", nargs="+", metavar="STORE", help="stores of `pasim run`")
         parser.add_argument("--json", action="store_true", help="print the numbers as JSON")
+        parser.add_argument(
+            "--sweep",
+            type=int,
+            metavar="N",
+            help="which sweep of volume stores to compare (required when they hold several)",
+        )
 
     def run(self, args: argparse.Namespace) -> int:
         from pasim_graph.cli import UserError
@@ -48,7 +54,7 @@ class CompareCommand:
         if len(args.stores) < 2:
             raise UserError("pasim compare needs at least two stores (pasim score reads one)")
         try:
-            stores = [read_store(p) for p in args.stores]
+            stores = [read_store(p, args.sweep) for p in args.stores]
             result = compare(stores)
         except CompareError as exc:
             raise UserError(str(exc)) from None
@@ -76,8 +82,8 @@ class CompareCommand:
         from ..study.compare import CompareError, by_azimuth, parse_by, read_store, score_against
 
         try:
-            store = read_store(args.store)
-            ref = read_store(args.against) if args.against else None
+            store = read_store(args.store, args.sweep)
+            ref = read_store(args.against, args.sweep) if args.against else None
             if args.by:
                 bin_deg = parse_by(args.by)
                 from ..study.compare import errors_against

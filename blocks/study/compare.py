@@ -35,12 +35,21 @@ class Store:
     units: dict[str, str]
 
 
-def read_store(path: str | Path) -> Store:
-    from pasim_graph.store import NotAStoreError, open_sweep
+def read_store(path: str | Path, sweep_index: int | None = None) -> Store:
+    """One sweep of a finished store: ``sweep_index``, which a volume of several sweeps must
+    name (comparing its first sweep alone would pass for the whole volume)."""
+    from pasim_graph.store import NotAStoreError, open_sweep, open_volume
 
     path = Path(path)
     try:
-        sweep, attrs = open_sweep(path)
+        sweep, attrs = open_sweep(path, sweep_index or 0)
+        if sweep_index is None:
+            held = sorted(str(n) for n in open_volume(path).children if n.startswith("sweep_"))
+            if len(held) > 1:
+                raise CompareError(
+                    f"{path}: a volume of {len(held)} sweeps (sweep_0 to "
+                    f"sweep_{len(held) - 1}); name one with --sweep N"
+                )
     except NotAStoreError as exc:
         raise CompareError(str(exc)) from None
     if "azimuth" not in sweep.dims:
