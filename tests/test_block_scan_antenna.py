@@ -297,6 +297,22 @@ def test_planar_scan_loss_and_zdr_bias_off_broadside() -> None:
     assert np.all(p.max(axis=(1, 2)) < 0.8 * broadside_peak)  # scan loss of ~1.2-1.6 dB
 
 
+def test_planar_chunk_grids_are_each_beams_own_grid() -> None:
+    """A chunk's grids, written beam by beam into one array, are each beam's own
+    :meth:`beam_grid` bit for bit, for an impaired array (channel errors, quantised phase
+    shifters: the exact non-separable path) as for an ideal one."""
+    for extra in ({}, {"phase_bits": 4, "phase_error_deg": 5.0, "amplitude_error_db": 0.5}):
+        block = PlanarPatchArray(name="array", **ARRAY, **extra)
+        block.setup()
+        az, el = np.array([285.0, 300.5, 262.0]), np.array([0.5, 0.5, 3.0])
+        co, cross = block.beam_grids(az, el, 7, None)
+        for b in range(az.size):
+            one_co, one_cross = block.beam_grid(float(az[b]), float(el[b]), 7, None)
+            assert co[b].dtype == one_co.dtype
+            np.testing.assert_array_equal(co[b], one_co)
+            np.testing.assert_array_equal(cross[b], one_cross)
+
+
 def test_planar_gain_is_aperture_directivity() -> None:
     """gain_db = planar_array_directivity_db and = 10 log10(4 pi A / lambda^2 eta_x eta_y),
     eta = |sum w|^2 / (N sum w^2) of scipy's Taylor window (nbar 5, 30 dB)."""

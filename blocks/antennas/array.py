@@ -163,6 +163,26 @@ class ArrayAntenna(Block):
         cross = np.stack([np.broadcast_to(f.h_cross, shape), np.broadcast_to(f.v_cross, shape)])
         return co, cross
 
+    def beam_grids(
+        self, az_deg: np.ndarray, el_deg: np.ndarray, seed: int, resource: Any
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`beam_grid` of every beam, written into one (beam, polarisation, el, az) pair
+        of arrays (no per-beam copies stacked afterwards: a chunk's grids are tens of MB)."""
+        shape = (az_deg.size, 2, self.d_el.size, self.d_az.size)
+        co, cross = np.empty(shape, complex), np.empty(shape, complex)
+        for b, (az, el) in enumerate(zip(az_deg, el_deg, strict=True)):
+            f = self.fields_at(
+                float(az),
+                float(el),
+                float(az) + self.d_az[None, :],
+                float(el) + self.d_el[:, None],
+                seed,
+                resource,
+            )
+            co[b, 0], co[b, 1] = f.h_co, f.v_co
+            cross[b, 0], cross[b, 1] = f.h_cross, f.v_cross
+        return co, cross
+
     def pattern_output(
         self,
         beams: xr.Dataset,

@@ -258,10 +258,7 @@ class PlanarPatchArray(ArrayAntenna):
         beams = inputs["beams"]
         if not self.omega:
             self._broadside_solid_angles(chunk.resource)
-        grids = [
-            self.beam_grid(float(a), float(e), chunk.seed, chunk.resource)
-            for a, e in zip(beams["azimuth"].values, beams["elevation"].values, strict=True)
-        ]
-        co = np.stack([g[0] for g in grids])
-        cross = np.stack([g[1] for g in grids])
+        co, cross = self.beam_grids(
+            beams["azimuth"].values, beams["elevation"].values, chunk.seed, chunk.resource
+        )
         return {"pattern": self.pattern_output(beams, co, cross, antenna="planar")}
