@@ -440,14 +440,27 @@ class CylindricalArray(ArrayAntenna):
         f = self._grid(first, self.beam_offset_steps(az_deg), el_deg, seed)
         return f[[0, 2]], f[[1, 3]]
 
+    def beam_grids(
+        self, az_deg: np.ndarray, el_deg: np.ndarray, seed: int, resource: Any
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`beam_grid` of every beam, written into one pair of arrays."""
+        self.prepare(resource)
+        co = cross = np.empty(0)
+        for b, (az, el) in enumerate(zip(az_deg, el_deg, strict=True)):
+            first, _ = self.sector(float(az))
+            f = self._grid(first, self.beam_offset_steps(float(az)), float(el), seed)
+            if b == 0:
+                co = np.empty((az_deg.size, 2, *f.shape[1:]), f.dtype)
+                cross = np.empty_like(co)
+            co[b, 0], co[b, 1] = f[0], f[2]
+            cross[b, 0], cross[b, 1] = f[1], f[3]
+        return co, cross
+
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         beams = inputs["beams"]
-        grids = [
-            self.beam_grid(float(a), float(e), chunk.seed, chunk.resource)
-            for a, e in zip(beams["azimuth"].values, beams["elevation"].values, strict=True)
-        ]
-        co = np.stack([g[0] for g in grids])
-        cross = np.stack([g[1] for g in grids])
+        co, cross = self.beam_grids(
+            beams["azimuth"].values, beams["elevation"].values, chunk.seed, chunk.resource
+        )
         ds = self.pattern_output(
             beams,
             co,
