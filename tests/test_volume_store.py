@@ -131,6 +131,16 @@ def test_score_against_and_compare_name_the_sweep_of_a_volume(volume, capsys):
     assert code == 2 and "no sweep 5" in err, err
 
 
+def test_plot_says_which_sweep_of_a_volume_it_drew(volume, capsys, tmp_path):
+    out = tmp_path / "sweep1.png"
+    code, _, err = pasim_out(
+        capsys, "plot", str(volume[0]), "--fields", "DBZH", "--sweep", "1", "--out", str(out)
+    )
+    assert code == 0, err
+    assert "drew sweep 1 of the volume's 3 (--sweep N for another)" in err
+    assert out.stat().st_size > 10_000
+
+
 def test_sweeps_draw_their_own_random_streams():
     """Beam indices restart in each sweep: the sweep keys the streams, and the first sweep's
     are a one-sweep scan's."""

@@ -368,13 +368,19 @@ def plot_store(
     ValueError
         None of the fields can be drawn.
     """
-    from pasim_graph.store import summarize
+    from pasim_graph.store import open_volume, summarize
 
     sweep, attrs = open_sweep(path, sweep_index)
     names, notes = available(sweep, fields)
     if not names:
         raise ValueError(f"{path}: none of the fields can be drawn ({'; '.join(notes)})")
-    fig = store_figure(sweep, names, title_of(path, attrs, sweep), summarize(sweep))
+    title = title_of(path, attrs, sweep)
+    count = sum(str(n).startswith("sweep_") for n in open_volume(path).children)
+    if count > 1:
+        # A volume: say which of its sweeps this is, in the picture and to the user.
+        title += f", sweep {sweep_index} of {count}"
+        notes.append(f"drew sweep {sweep_index} of the volume's {count} (--sweep N for another)")
+    fig = store_figure(sweep, names, title, summarize(sweep))
     Path(out).write_bytes(png_bytes(fig, dpi))
     return notes
 
