@@ -223,7 +223,7 @@ def cmd_tradeoff(args: argparse.Namespace) -> int:
 
 def cmd_score(args: argparse.Namespace) -> int:
     from .scores import print_volume, volume_scores
-    from .store import NotAStoreError, open_sweep, open_volume
+    from .store import NotAStoreError, open_finished
 
     if args.sweep is not None and not (args.against or args.by):
         raise UserError(
@@ -240,8 +240,8 @@ def cmd_score(args: argparse.Namespace) -> int:
             raise UserError("--against and --by need the block library's `compare` command")
         return int(command.score(args))
     try:
-        open_sweep(args.store)  # refuses, naming it, a store that is missing, unfinished or damaged
-        volume = volume_scores(open_volume(args.store))
+        # refuses, naming it, a store that is missing, unfinished or damaged
+        volume = volume_scores(open_finished(args.store))
     except NotAStoreError as exc:
         raise UserError(str(exc)) from None
     if not volume["scores"]:

@@ -22,8 +22,10 @@ import xarray as xr
 
 from .ports import BEAM_DIM
 from .scores import summarize as summarize  # re-exported: callers score a sweep from here
+from .scores import sweep_names
 from .store_check import DamagedStoreError, NotAStoreError, check_chunks
 from .store_lock import LOCK, StoreError, StoreLock, current_writer, describe_holder
+from .stored_values import writes_raw
 
 _SITE = ("latitude", "longitude", "altitude")
 _ROOT_VARS = (
@@ -435,7 +437,7 @@ def write_region(
             )
     # Every chunk is written, even one that holds only NaN, so that in a finished store a
     # missing chunk file is damage (check_chunks), never a silent NaN.
-    raw = [n for n in region_vars if _writes_raw(ds[n], stored[str(n)])]
+    raw = [n for n in region_vars if writes_raw(ds[n], stored[str(n)])]
     for name in raw:
         array = stored[str(name)].with_config({"write_empty_chunks": True})  # type: ignore[union-attr]
         where = tuple(slice(start, stop) if d == beam_dim else slice(None) for d in ds[name].dims)
@@ -452,50 +454,6 @@ def write_region(
             )
         flags = zarr.open_array(str(path), path=DONE, mode="r+")
         flags.with_config({"write_empty_chunks": True})[chunk_index] = 1
-
-
-def _writes_raw(variable: xr.DataArray, stored: Any) -> bool:
-    """Whether ``variable``'s values are its stored bytes: what xarray's ``to_zarr`` would
-    write, without its per-call cost (about 80 ms a chunk, most of a small run's writing).
-
-    True for plain numbers stored with the same dtype and dimensions and no CF encoding
-    (times, scale and offset, a fill value other than NaN); anything else goes through xarray.
-    """
-    if variable.dtype.kind not in "fciu" or stored.dtype != variable.dtype:
-        return False
-    names = getattr(stored.metadata, "dimension_names", None)
-    if names is None or tuple(names) != tuple(variable.dims):
-        return False
-    attrs = {**stored.attrs, **variable.attrs, **variable.encoding}
-    if any(k in attrs for k in ("scale_factor", "add_offset", "calendar")):
-        return False
-    if (
-        " since " in str(attrs.get("units", ""))
-        or attrs.get("dtype", variable.dtype) != variable.dtype
-    ):
-        return False
-    fill = attrs.get("_FillValue")
-    if fill is None:
-        return True  # no CF fill: xarray writes the values as they are
-    return variable.dtype.kind in "fc" and _is_nan(fill)
-
-
-def _is_nan(fill: Any) -> bool:
-    """A CF fill value that is NaN, as a number or as xarray keeps a float fill in a Zarr v3
-    attribute (base64 of its little-endian float64 bytes)."""
-    if isinstance(fill, str):
-        import base64
-        import binascii
-
-        try:
-            raw = base64.b64decode(fill, validate=True)
-        except (binascii.Error, ValueError):
-            return False
-        return len(raw) == 8 and bool(np.isnan(np.frombuffer(raw, "<f8")[0]))
-    try:
-        return bool(np.all(np.isnan(np.asarray(fill, dtype=complex))))
-    except (TypeError, ValueError):
-        return False
 
 
 def run_state(path: str | Path) -> tuple[dict[str, Any], np.ndarray] | None:
@@ -552,7 +510,18 @@ class IncompleteStoreError(RuntimeError):
 
 def open_sweep(path: str | Path, index: int = 0) -> tuple[xr.Dataset, dict[str, Any]]:
     """A sweep of a finished run (``sweep_<index>``, the first by default) and its root
-    attributes.
+    attributes; :func:`open_finished` says what it refuses."""
+    tree = open_finished(path)
+    return sweep_of(tree, path, index), root_attrs(tree)
+
+
+def root_attrs(tree: xr.DataTree) -> dict[str, Any]:
+    """A volume's root attributes (the run's graph, seed, versions), by name."""
+    return {str(k): v for k, v in tree.attrs.items()}
+
+
+def open_finished(path: str | Path) -> xr.DataTree:
+    """A finished run's whole volume, checked.
 
     Raises :class:`NotAStoreError` naming the path when it is missing, not a store, or a run
     that did not finish, and :class:`DamagedStoreError` (a kind of it) naming each damaged
@@ -573,11 +542,15 @@ def open_sweep(path: str | Path, index: int = 0) -> tuple[xr.Dataset, dict[str, 
         raise NotAStoreError(f"{path}: not a PASIM-graph store ({exc})") from None
     if "sweep_0" not in tree.children:
         raise NotAStoreError(f"{path}: no sweep_0 group; is this a PASIM-graph store?")
+    return tree
+
+
+def sweep_of(tree: xr.DataTree, path: str | Path, index: int) -> xr.Dataset:
+    """Sweep ``index`` of an opened volume; :class:`NotAStoreError` names the sweeps it holds."""
     group = f"sweep_{index}"
     if group not in tree.children:
-        held = sorted(str(n) for n in tree.children if str(n).startswith("sweep_"))
-        raise NotAStoreError(f"{path}: no sweep {index}; it holds {', '.join(held)}")
-    return tree[group].to_dataset(), {str(k): v for k, v in tree.attrs.items()}
+        raise NotAStoreError(f"{path}: no sweep {index}; it holds {', '.join(sweep_names(tree))}")
+    return tree[group].to_dataset()
 
 
 def open_volume(path: str | Path) -> xr.DataTree:

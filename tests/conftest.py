@@ -96,3 +96,20 @@ def studio(request, folder, tmp_path):
     server.serve_in_thread()
     yield server
     server.close()
+
+
+def assert_chunk_grids_are_each_beams_fields(block, az, el, seed: int) -> None:
+    """An array block's chunk of pattern grids (``beam_grids``, written in place) holds, bit
+    for bit and in the same dtype, each beam's own fields stacked per polarisation as the
+    blocks stacked them before: (H, V) co-polar and (H, V) cross-polar on the offset grid."""
+    import numpy as np
+
+    co, cross = block.beam_grids(az, el, seed, None)
+    shape = (block.d_el.size, block.d_az.size)
+    for b in range(az.size):
+        h_co, v_co, h_cross, v_cross = block.beam_fields(float(az[b]), float(el[b]), seed, None)
+        one_co = np.stack([np.broadcast_to(h_co, shape), np.broadcast_to(v_co, shape)])
+        one_cross = np.stack([np.broadcast_to(h_cross, shape), np.broadcast_to(v_cross, shape)])
+        assert co[b].dtype == one_co.dtype and cross[b].dtype == one_cross.dtype
+        np.testing.assert_array_equal(co[b], one_co)
+        np.testing.assert_array_equal(cross[b], one_cross)

@@ -33,6 +33,8 @@ from scipy.signal.windows import taylor
 
 from pasim_graph import Chunk
 
+from .conftest import assert_chunk_grids_are_each_beams_fields
+
 C = 299_792_458.0
 
 
@@ -297,20 +299,15 @@ def test_planar_scan_loss_and_zdr_bias_off_broadside() -> None:
     assert np.all(p.max(axis=(1, 2)) < 0.8 * broadside_peak)  # scan loss of ~1.2-1.6 dB
 
 
-def test_planar_chunk_grids_are_each_beams_own_grid() -> None:
-    """A chunk's grids, written beam by beam into one array, are each beam's own
-    :meth:`beam_grid` bit for bit, for an impaired array (channel errors, quantised phase
-    shifters: the exact non-separable path) as for an ideal one."""
+def test_planar_chunk_grids_are_each_beams_own_fields() -> None:
+    """A chunk's grids, written beam by beam into one array, are each beam's own fields, for
+    an impaired array (channel errors, quantised phase shifters: the exact non-separable
+    path) as for an ideal one."""
     for extra in ({}, {"phase_bits": 4, "phase_error_deg": 5.0, "amplitude_error_db": 0.5}):
         block = PlanarPatchArray(name="array", **ARRAY, **extra)
         block.setup()
         az, el = np.array([285.0, 300.5, 262.0]), np.array([0.5, 0.5, 3.0])
-        co, cross = block.beam_grids(az, el, 7, None)
-        for b in range(az.size):
-            one_co, one_cross = block.beam_grid(float(az[b]), float(el[b]), 7, None)
-            assert co[b].dtype == one_co.dtype
-            np.testing.assert_array_equal(co[b], one_co)
-            np.testing.assert_array_equal(cross[b], one_cross)
+        assert_chunk_grids_are_each_beams_fields(block, az, el, 7)
 
 
 def test_planar_gain_is_aperture_directivity() -> None:

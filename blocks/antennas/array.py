@@ -146,10 +146,11 @@ class ArrayAntenna(Block):
             self._draws[key] = self.channel.draw(self.channel_shape(), rng)
         return self._draws[key]
 
-    def beam_grid(
+    def beam_fields(
         self, az_deg: float, el_deg: float, seed: int, resource: Any
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Co- and cross-polar fields (polarisation, el, az) of one beam on the offset grid."""
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """H and V co-polar, then H and V cross-polar fields of one beam on the offset grid,
+        each broadcastable to (el, az)."""
         f = self.fields_at(
             az_deg,
             el_deg,
@@ -158,10 +159,14 @@ class ArrayAntenna(Block):
             seed,
             resource,
         )
-        shape = (self.d_el.size, self.d_az.size)
-        co = np.stack([np.broadcast_to(f.h_co, shape), np.broadcast_to(f.v_co, shape)])
-        cross = np.stack([np.broadcast_to(f.h_cross, shape), np.broadcast_to(f.v_cross, shape)])
-        return co, cross
+        return f.h_co, f.v_co, f.h_cross, f.v_cross
+
+    def beam_grid(
+        self, az_deg: float, el_deg: float, seed: int, resource: Any
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Co- and cross-polar fields (polarisation, el, az) of one beam on the offset grid."""
+        co, cross = self.beam_grids(np.array([az_deg]), np.array([el_deg]), seed, resource)
+        return co[0], cross[0]
 
     def beam_grids(
         self, az_deg: np.ndarray, el_deg: np.ndarray, seed: int, resource: Any
@@ -169,18 +174,17 @@ class ArrayAntenna(Block):
         """:meth:`beam_grid` of every beam, written into one (beam, polarisation, el, az) pair
         of arrays (no per-beam copies stacked afterwards: a chunk's grids are tens of MB)."""
         shape = (az_deg.size, 2, self.d_el.size, self.d_az.size)
-        co, cross = np.empty(shape, complex), np.empty(shape, complex)
+        co: np.ndarray | None = None
+        cross: np.ndarray | None = None
         for b, (az, el) in enumerate(zip(az_deg, el_deg, strict=True)):
-            f = self.fields_at(
-                float(az),
-                float(el),
-                float(az) + self.d_az[None, :],
-                float(el) + self.d_el[:, None],
-                seed,
-                resource,
-            )
-            co[b, 0], co[b, 1] = f.h_co, f.v_co
-            cross[b, 0], cross[b, 1] = f.h_cross, f.v_cross
+            h_co, v_co, h_cross, v_cross = self.beam_fields(float(az), float(el), seed, resource)
+            if co is None or cross is None:
+                co = np.empty(shape, np.result_type(h_co, v_co))
+                cross = np.empty(shape, np.result_type(h_cross, v_cross))
+            co[b, 0], co[b, 1] = h_co, v_co
+            cross[b, 0], cross[b, 1] = h_cross, v_cross
+        if co is None or cross is None:  # no beams
+            return np.empty(shape, complex), np.empty(shape, complex)
         return co, cross
 
     def pattern_output(

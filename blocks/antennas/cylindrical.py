@@ -432,29 +432,13 @@ class CylindricalArray(ArrayAntenna):
         """
         return int(np.round(self.sector(azimuth_deg)[1] * self.per_column))
 
-    def beam_grid(
+    def beam_fields(
         self, az_deg: float, el_deg: float, seed: int, resource: Any
-    ) -> tuple[np.ndarray, np.ndarray]:
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         self.prepare(resource)
         first, _ = self.sector(az_deg)
         f = self._grid(first, self.beam_offset_steps(az_deg), el_deg, seed)
-        return f[[0, 2]], f[[1, 3]]
-
-    def beam_grids(
-        self, az_deg: np.ndarray, el_deg: np.ndarray, seed: int, resource: Any
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`beam_grid` of every beam, written into one pair of arrays."""
-        self.prepare(resource)
-        co = cross = np.empty(0)
-        for b, (az, el) in enumerate(zip(az_deg, el_deg, strict=True)):
-            first, _ = self.sector(float(az))
-            f = self._grid(first, self.beam_offset_steps(float(az)), float(el), seed)
-            if b == 0:
-                co = np.empty((az_deg.size, 2, *f.shape[1:]), f.dtype)
-                cross = np.empty_like(co)
-            co[b, 0], co[b, 1] = f[0], f[2]
-            cross[b, 0], cross[b, 1] = f[1], f[3]
-        return co, cross
+        return f[0], f[2], f[1], f[3]
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         beams = inputs["beams"]

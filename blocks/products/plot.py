@@ -368,14 +368,15 @@ def plot_store(
     ValueError
         None of the fields can be drawn.
     """
-    from pasim_graph.store import open_volume, summarize
+    from pasim_graph.store import open_finished, root_attrs, summarize, sweep_names, sweep_of
 
-    sweep, attrs = open_sweep(path, sweep_index)
+    tree = open_finished(path)
+    sweep, attrs = sweep_of(tree, path, sweep_index), root_attrs(tree)
     names, notes = available(sweep, fields)
     if not names:
         raise ValueError(f"{path}: none of the fields can be drawn ({'; '.join(notes)})")
     title = title_of(path, attrs, sweep)
-    count = sum(str(n).startswith("sweep_") for n in open_volume(path).children)
+    count = len(sweep_names(tree))
     if count > 1:
         # A volume: say which of its sweeps this is, in the picture and to the user.
         title += f", sweep {sweep_index} of {count}"

@@ -38,18 +38,24 @@ class Store:
 def read_store(path: str | Path, sweep_index: int | None = None) -> Store:
     """One sweep of a finished store: ``sweep_index``, which a volume of several sweeps must
     name (comparing its first sweep alone would pass for the whole volume)."""
-    from pasim_graph.store import NotAStoreError, open_sweep, open_volume
+    from pasim_graph.store import (
+        NotAStoreError,
+        open_finished,
+        root_attrs,
+        sweep_names,
+        sweep_of,
+    )
 
     path = Path(path)
     try:
-        sweep, attrs = open_sweep(path, sweep_index or 0)
-        if sweep_index is None:
-            held = sorted(str(n) for n in open_volume(path).children if n.startswith("sweep_"))
-            if len(held) > 1:
-                raise CompareError(
-                    f"{path}: a volume of {len(held)} sweeps (sweep_0 to "
-                    f"sweep_{len(held) - 1}); name one with --sweep N"
-                )
+        tree = open_finished(path)
+        held = sweep_names(tree)
+        if sweep_index is None and len(held) > 1:
+            raise CompareError(
+                f"{path}: a volume of {len(held)} sweeps ({held[0]} to {held[-1]}); "
+                "name one with --sweep N"
+            )
+        sweep, attrs = sweep_of(tree, path, sweep_index or 0), root_attrs(tree)
     except NotAStoreError as exc:
         raise CompareError(str(exc)) from None
     if "azimuth" not in sweep.dims:
