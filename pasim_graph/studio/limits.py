@@ -2,7 +2,10 @@
 
 - :class:`BoundedHTTPServer`: a pool of threads serves the connections; one more than
   ``max_connections`` is answered at once with 503; a connection silent for
-  ``idle_timeout`` seconds is closed; a dropped connection is one line in the terminal.
+  ``idle_timeout`` seconds is closed, and so is one whose request (line, headers and body)
+  has not all arrived ``request_deadline`` seconds after the server began to wait for it (a
+  client trickling a byte within every idle timeout would otherwise hold its thread for
+  ever); a dropped connection is one line in the terminal.
 - :func:`load_json`: a request body as a JSON object, with numbers, nesting and constants
   bounded, so that a malformed body is a 400 naming what is wrong, never a 500.
 """
@@ -10,8 +13,10 @@
 from __future__ import annotations
 
 import json
+import socket
 import sys
 import threading
+import time
 from concurrent.futures import ThreadPoolExecutor
 from http.server import HTTPServer
 from typing import Any
@@ -28,6 +33,9 @@ MAX_DIGITS = 64
 MAX_CONNECTIONS = 32
 #: Seconds a connection may stay silent (between requests, or mid-request) before it is closed.
 IDLE_TIMEOUT = 5.0
+#: Seconds a whole request (line, headers and body) may take to arrive: a 1 MiB body over
+#: the loopback takes milliseconds, a browser's request well under one.
+REQUEST_DEADLINE = 10.0
 
 
 class BoundedHTTPServer(HTTPServer):
@@ -41,17 +49,50 @@ class BoundedHTTPServer(HTTPServer):
         handler: Any,
         max_connections: int = MAX_CONNECTIONS,
         idle_timeout: float = IDLE_TIMEOUT,
+        request_deadline: float = REQUEST_DEADLINE,
     ):
         self.max_connections = max_connections
         self.idle_timeout = idle_timeout
+        self.request_deadline = request_deadline
         self._open = 0
         self._open_lock = threading.Lock()
         self._pool = ThreadPoolExecutor(max_connections, thread_name_prefix="studio")
+        # The connections waiting for a request, and when each must have it all.
+        self._deadlines: dict[Any, float] = {}
+        self._closing = threading.Event()
         super().__init__(address, handler)
+        threading.Thread(target=self._watch_deadlines, name="studio-deadlines", daemon=True).start()
 
     def server_close(self) -> None:
+        self._closing.set()
         super().server_close()
         self._pool.shutdown(wait=False, cancel_futures=True)
+
+    # -- the whole-request deadline ---------------------------------------------------------
+
+    def request_awaited(self, request: Any) -> None:
+        """The server begins to wait for a request on this connection: its clock starts."""
+        with self._open_lock:
+            self._deadlines[request] = time.monotonic() + self.request_deadline
+
+    def request_received(self, request: Any) -> None:
+        """The request has all arrived (its body too): answering it has no deadline."""
+        with self._open_lock:
+            self._deadlines.pop(request, None)
+
+    def _watch_deadlines(self) -> None:
+        """Shut the connections whose request is late: the thread reading it sees the end."""
+        while not self._closing.wait(min(0.25, self.request_deadline / 4)):
+            now = time.monotonic()
+            with self._open_lock:
+                late = [r for r, t in self._deadlines.items() if t <= now]
+                for request in late:
+                    del self._deadlines[request]
+            for request in late:
+                try:
+                    request.shutdown(socket.SHUT_RDWR)
+                except OSError:
+                    pass
 
     # -- the bounds -------------------------------------------------------------------------
 
@@ -82,6 +123,7 @@ class BoundedHTTPServer(HTTPServer):
         self.shutdown_request(request)
         with self._open_lock:
             self._open -= 1
+            self._deadlines.pop(request, None)
 
     def _refuse(self, request: Any) -> None:
         body = json.dumps(

@@ -36,7 +36,15 @@ from ..interrupt import Stopped, stop_on_signals
 from . import documents as docs
 from . import swaps
 from .documents import Folder, RequestError
-from .limits import IDLE_TIMEOUT, MAX_BODY, MAX_CONNECTIONS, BoundedHTTPServer, dropped, load_json
+from .limits import (
+    IDLE_TIMEOUT,
+    MAX_BODY,
+    MAX_CONNECTIONS,
+    REQUEST_DEADLINE,
+    BoundedHTTPServer,
+    dropped,
+    load_json,
+)
 from .runs import Runs
 
 STATIC = Path(__file__).parent / "static"
@@ -52,8 +60,9 @@ class StudioServer(BoundedHTTPServer):
 
     The server is bounded: a pool of ``max_connections`` threads serves the connections, one
     more than that is answered at once with 503, and a connection silent for
-    ``idle_timeout`` seconds is closed; so no number of clients (or of idle browser tabs)
-    makes it hang or grow.
+    ``idle_timeout`` seconds is closed, and so is one whose request has not all arrived
+    ``request_deadline`` seconds after the server began to wait for it; so no number of
+    clients (or of idle browser tabs, or of clients trickling bytes) makes it hang or grow.
 
     Parameters
     ----------
@@ -72,7 +81,7 @@ class StudioServer(BoundedHTTPServer):
     run_memory_bytes : int, optional
         What a run may allocate (:class:`~pasim_graph.studio.runs.Runs`); default half the
         memory available at start.
-    max_connections, idle_timeout :
+    max_connections, idle_timeout, request_deadline :
         The bounds above.
     """
 
@@ -88,6 +97,7 @@ class StudioServer(BoundedHTTPServer):
         run_memory_bytes: int | None = None,
         max_connections: int = MAX_CONNECTIONS,
         idle_timeout: float = IDLE_TIMEOUT,
+        request_deadline: float = REQUEST_DEADLINE,
     ):
         self.folder = Folder(folder)
         self.token = token or secrets.token_urlsafe(24)
@@ -98,7 +108,9 @@ class StudioServer(BoundedHTTPServer):
         runs_path.mkdir(parents=True, exist_ok=True)
         self.runs = Runs(self.folder, runs_path.resolve(), memory_bytes=run_memory_bytes)
         # Loopback only, whatever the caller asks: the page can write files.
-        super().__init__(("127.0.0.1", port), Handler, max_connections, idle_timeout)
+        super().__init__(
+            ("127.0.0.1", port), Handler, max_connections, idle_timeout, request_deadline
+        )
         self.port = int(self.server_address[1])
         self.allowed_hosts = {f"127.0.0.1:{self.port}", f"localhost:{self.port}"}
         self.allowed_origins = {f"http://{h}" for h in self.allowed_hosts}
@@ -131,6 +143,10 @@ class Handler(BaseHTTPRequestHandler):
     default_request_version = "HTTP/1.0"
 
     # -- plumbing ---------------------------------------------------------------------------
+
+    def handle_one_request(self) -> None:
+        self.server.request_awaited(self.connection)
+        super().handle_one_request()
 
     def handle(self) -> None:
         try:
@@ -232,6 +248,7 @@ class Handler(BaseHTTPRequestHandler):
             raise RequestError(413, f"request body of {n} bytes is over the {MAX_BODY} limit")
         raw = self.rfile.read(n)
         self._body_read = True
+        self.server.request_received(self.connection)
         if len(raw) < n:
             raise RequestError(400, f"the body ended after {len(raw)} of {n} bytes")
         return load_json(raw)
@@ -241,6 +258,8 @@ class Handler(BaseHTTPRequestHandler):
     def _handle(self, method: str) -> None:
         # One handler serves every request of a kept-alive connection.
         self._body_read = False
+        if method != "POST":
+            self.server.request_received(self.connection)
         try:
             self._check_origin()
             url = urlsplit(self.path)
@@ -271,6 +290,7 @@ class Handler(BaseHTTPRequestHandler):
             length = self.headers.get("Content-Length", "")
             if length.isdigit() and int(length) <= MAX_BODY:
                 self.rfile.read(int(length))
+                self.server.request_received(self.connection)
             else:
                 self.close_connection = True
 
