@@ -7,6 +7,7 @@ culprit and exits with code 2, never a traceback.
 from __future__ import annotations
 
 import argparse
+import errno
 import json
 import os
 import sys
@@ -20,6 +21,7 @@ from .block import RunNote
 from .block_reference import cmd_blocks
 from .graph import Graph, GraphError, resolve
 from .interrupt import StopMessage, Stopped, stop_on_signals
+from .outputs import write_atomic
 from .serialize import json_safe
 
 EXIT_USAGE = 2
@@ -481,7 +483,7 @@ def cmd_graph(args: argparse.Namespace) -> int:
     graph = _graph(args)
     text = FORMATS[args.format](view(graph.spec, Path(args.graph).stem))
     if args.out:
-        Path(args.out).write_text(text)
+        write_atomic(args.out, text)
         print(f"wrote {args.out}", file=sys.stderr)
     else:
         sys.stdout.write(text)
@@ -546,7 +548,11 @@ def main(argv: list[str] | None = None) -> int:
         warnings.simplefilter("default", RunNote)
         warnings.showwarning = _show_warning
         try:
-            return int(args.func(args))
+            code = int(args.func(args))
+            # Flush here, not at the interpreter's exit: a full device (`> /dev/full`) is then
+            # an error of this program, one line, not a traceback from the final flush.
+            sys.stdout.flush()
+            return code
         except GraphError as exc:
             print(exc.report(), file=sys.stderr)
         except UserError as exc:
@@ -578,6 +584,17 @@ def main(argv: list[str] | None = None) -> int:
             # stdout at nothing so the interpreter's final flush cannot fail again.
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
             return 0
+        except OSError as exc:
+            # An output that cannot be written: a read-only or full disk, a folder given as a
+            # file. Outputs are written whole or not at all (outputs.write_atomic).
+            if exc.filename is not None:
+                print(f"error: {exc.filename}: cannot write: {exc.strerror}", file=sys.stderr)
+            elif exc.errno in (errno.ENOSPC, errno.EIO, errno.EROFS, errno.EDQUOT):
+                print(f"error: cannot write standard output: {exc.strerror}", file=sys.stderr)
+                # What is still buffered cannot be written either: drop it with the stream.
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            else:
+                raise
     return EXIT_USAGE
 
 

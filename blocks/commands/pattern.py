@@ -10,12 +10,14 @@ it has electronics, for the ideal array beside it.
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import math
 from typing import Any
 
 import numpy as np
 
+from pasim_graph.outputs import write_atomic
 from pasim_graph.serialize import json_safe
 
 #: Main beam for the cross-polar level: where the port's co-polar power is within this of its
@@ -337,8 +339,10 @@ def plot(path: str, built: dict[str, Any], ideal: dict[str, Any] | None, title: 
     axes[1].legend(loc="upper right", fontsize=7)
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=130)
     plt.close(fig)
+    write_atomic(path, buf.getvalue())
 
 
 COMMAND = PatternCommand()

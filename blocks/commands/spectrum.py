@@ -19,6 +19,7 @@ an FM waveform is one whose pulse carries a ``bandwidth_hz`` (its swept bandwidt
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import math
 import sys
@@ -30,6 +31,7 @@ import numpy as np
 import xarray as xr
 
 from pasim_graph import Chunk, Graph
+from pasim_graph.outputs import write_atomic
 from pasim_graph.serialize import json_safe
 
 from ..transmitters.emission import (
@@ -250,8 +252,10 @@ def plot(s: Spectrum, path: str) -> None:
         f"{' + '.join(m['amplifiers']) or 'no amplifier'}, {m['peak_power_w'] / 1e3:g} kW peak"
     )
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
     plt.close(fig)
+    write_atomic(path, buf.getvalue())
 
 
 class SpectrumCommand:

@@ -12,6 +12,7 @@ transmitter). From the two range responses it reports the figures of merit of
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import math
 import sys
@@ -24,6 +25,7 @@ import numpy as np
 import xarray as xr
 
 from pasim_graph import Chunk, Graph
+from pasim_graph.outputs import write_atomic
 from pasim_graph.serialize import json_safe
 
 from ..signals import SPEED_OF_LIGHT
@@ -307,8 +309,10 @@ def plot(analysis: Analysis, path: str) -> None:
         f"{Path(str(m['graph'])).name}: waveform {', '.join(m['waveforms'])}, filter {m['filter']}"
     )
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
     plt.close(fig)
+    write_atomic(path, buf.getvalue())
 
 
 def metrics_text(metrics: dict[str, Any]) -> str:

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from pasim_graph.outputs import write_atomic
 from pasim_graph.store import NotAStoreError, open_sweep
 
 from ..signals import MOMENT_FIELDS as MOMENTS
@@ -382,7 +383,7 @@ def plot_store(
         title += f", sweep {sweep_index} of {count}"
         notes.append(f"drew sweep {sweep_index} of the volume's {count} (--sweep N for another)")
     fig = store_figure(sweep, names, title, summarize(sweep))
-    Path(out).write_bytes(png_bytes(fig, dpi))
+    write_atomic(out, png_bytes(fig, dpi))
     return notes
 
 
