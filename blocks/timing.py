@@ -49,6 +49,22 @@ def transmit_phase(beams: xr.Dataset, pulses: int) -> np.ndarray | None:
     return np.asarray(beams["transmit_phase"].values, np.float64).reshape(-1, pulses)
 
 
+def cohere_first_trip(iq: np.ndarray, beams: xr.Dataset) -> np.ndarray:
+    """The received I/Q (beam x gate x pulse x channel) cohered to the first trip: each pulse
+    multiplied by e^(-j psi_m), the conjugate of its transmit phase (SZ-1 / SZ-2's first
+    step), so a first-trip echo is the uncoded one and the other trips stay modulated. The
+    I/Q itself (not a copy) without a phase code or without pulses."""
+    pulses = iq.shape[2]
+    psi = transmit_phase(beams, pulses) if pulses else None
+    if psi is None:
+        return iq
+    if psi.shape[0] != iq.shape[0]:
+        raise ValueError(
+            f"the scan's transmit phases are for {psi.shape[0]} beams, the I/Q has {iq.shape[0]}"
+        )
+    return iq * np.exp(-1j * psi).astype(iq.dtype)[:, None, :, None]
+
+
 def sz_code(n: int, m: int) -> np.ndarray:
     """Transmit phases (rad) of the SZ(n/M) code (Sachidananda and Zrnic 1999):
     psi_k = sum_(l<=k) n pi l^2 / M. After cohering to one trip, the next trip carries the

@@ -19,6 +19,7 @@ from ..signals import (
     NOISE_POWER,
     POLARIMETRIC_FIELDS,
 )
+from ..timing import cohere_first_trip
 from .output import Censoring, moments_dataset, thresholds
 
 
@@ -200,12 +201,16 @@ class PulsePairProcessor(Censoring, Block):
     each state's co-polar pulses, velocity and width from the co-polar lag 2 (Nyquist
     velocity lambda / (8T)), rho_hv and phi_DP (modulo 180 deg) from the lag-1 H-V
     cross-correlations with the lag-2 coherency correction.
+
+    A phase-coded scan (scan.ppi's ``phase_code``) is cohered to the first trip first: each
+    pulse is multiplied by the conjugate of its transmit phase, so a first-trip echo gives
+    the moments it gives uncoded, and echoes of other trips stay spread by the code.
     """
 
     iq = Input(IQ, doc="received I/Q")
     noise_power = Input(NOISE_POWER, doc="noise power per channel")
     calibration = Input(CALIBRATION, doc="radar constant and gate ranges")
-    beams = Input(BEAMS, doc="beam geometry (PRT)")
+    beams = Input(BEAMS, doc="beam geometry (PRT, transmit phases)")
     echo_correlations = Input(
         ECHO_CORRELATIONS, required=False, doc="expected echo correlations (expected level)"
     )
@@ -231,6 +236,7 @@ class PulsePairProcessor(Censoring, Block):
             )
         if mode not in ("shv", "ahv"):
             raise ValueError(f"calibration: unknown transmission {mode!r} (expected shv or ahv)")
+        iq = cohere_first_trip(iq, inputs["beams"])
         if mode == "ahv":
             # The weather channel draws V for AHV's velocity too (its lag 2 of H and V).
             use_v = bool(cal.attrs.get("dual_polarization", 1)) and (polarimetric or doppler)

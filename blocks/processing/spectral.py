@@ -37,6 +37,7 @@ from ..signals import (
     NOISE_POWER,
     POLARIMETRIC_FIELDS,
 )
+from ..timing import cohere_first_trip
 from .gmap import clutter_phase_alignment, clutter_shape, gmap
 from .output import Censoring, moments_dataset, thresholds
 
@@ -122,13 +123,16 @@ class SpectralProcessor(Censoring, Block):
     The window's leakage sets how much clutter can be removed: a narrow clutter spectrum is
     spread by the window's sidelobes (-31 dB Hann, -58 dB Blackman, -92 dB Blackman-Harris)
     over the whole spectrum, so a clutter-to-noise ratio above the sidelobe level plus
-    10 log10(M) needs a lower-sidelobe window. Simultaneous transmission (SHV) only.
+    10 log10(M) needs a lower-sidelobe window. Simultaneous transmission (SHV) only. A
+    phase-coded scan is cohered to the first trip before anything else (the clutter test,
+    GMAP and the moments), as ``processor.pulse_pair`` does: first-trip weather and ground
+    clutter are then the uncoded ones, clutter at zero velocity.
     """
 
     iq = Input(IQ, doc="received I/Q")
     noise_power = Input(NOISE_POWER, doc="noise power per channel")
     calibration = Input(CALIBRATION, doc="radar constant and gate ranges")
-    beams = Input(BEAMS, doc="beam geometry (PRT)")
+    beams = Input(BEAMS, doc="beam geometry (PRT, transmit phases)")
     moments = Output(
         MOMENTS, store="moments", doc="estimated moments", fields=(*MOMENT_FIELDS, "CCORH")
     )
@@ -173,6 +177,7 @@ class SpectralProcessor(Censoring, Block):
                 f"the spectral processor needs at least 4 pulses per dwell, got {iq.shape[2]} "
                 "(the weather channel's method 'expected' has none: use processor.pulse_pair)"
             )
+        iq = cohere_first_trip(iq, inputs["beams"])
         dual = bool(cal.attrs.get("dual_polarization", 1)) and chunk.wants(*POLARIMETRIC_FIELDS)
         m = iq.shape[2]
         w = window(self.p["window"], m)

@@ -38,7 +38,7 @@ from ..signals import (
     NOISE_POWER,
     POLARIMETRIC_FIELDS,
 )
-from ..timing import prt_ratio
+from ..timing import cohere_first_trip, prt_ratio
 from .output import Censoring, moments_dataset, thresholds
 from .pulse_pair import correlations, moments_from_correlations
 
@@ -101,13 +101,14 @@ class StaggeredPrtProcessor(Censoring, Block):
     Velocity dealiased on the extended Nyquist interval lambda / (4 (T2 - T1)) by the
     velocity-difference rule, width from the two lags' ratio, power and polarimetric
     moments from all pulses (:mod:`pasim_blocks.processing.staggered`). The Nyquist
-    velocity reported (and scored on) is the extended one.
+    velocity reported (and scored on) is the extended one. A phase-coded scan is cohered to
+    the first trip first, as ``processor.pulse_pair`` does.
     """
 
     iq = Input(IQ, doc="received I/Q, pulses alternately T1 and T2 apart")
     noise_power = Input(NOISE_POWER, doc="noise power per channel")
     calibration = Input(CALIBRATION, doc="radar constant and gate ranges")
-    beams = Input(BEAMS, doc="beam geometry (T1 and the PRT ratio)")
+    beams = Input(BEAMS, doc="beam geometry (T1, the PRT ratio, transmit phases)")
     moments = Output(MOMENTS, store="moments", doc="estimated moments", fields=MOMENT_FIELDS)
 
     def setup(self) -> None:
@@ -129,6 +130,7 @@ class StaggeredPrtProcessor(Censoring, Block):
         mode = str(cal.attrs.get("transmission", "shv"))
         if mode != "shv":
             raise ValueError(f"staggered PRT is processed for transmission shv, got {mode!r}")
+        iq = cohere_first_trip(iq, beams)
         t1 = float(beams["prt"].values[0])
         lam = float(cal.attrs["wavelength_m"])
         dual = bool(cal.attrs.get("dual_polarization", 1)) and chunk.wants(*POLARIMETRIC_FIELDS)

@@ -509,6 +509,12 @@ class WeatherChannel(WidthParams, Block):
         trips = trip_count(rng_m, prt) if self.p["range_folding"] else 1
         if trips == 1 and phase is None:
             return None
+        if method == "expected" and phase is not None:
+            raise ValueError(
+                "a phase code (scan.ppi's phase_code) needs time series: the weather "
+                "channel's method 'expected' has none (use combined, covariance or "
+                "monte_carlo, or phase_code none)"
+            )
         if method == "expected":
             raise ValueError(
                 "range folding and phase codes need time series: the weather channel's "
