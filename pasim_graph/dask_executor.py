@@ -18,6 +18,7 @@ import contextlib
 import errno
 import json
 import os
+import sys
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -421,7 +422,7 @@ class DaskExecutor:
         try:
             with (
                 threadpool_limits(limits=1, user_api="blas"),
-                ProgressBar() if self.progress else contextlib.nullcontext(),
+                ProgressBar(out=sys.stderr) if self.progress else contextlib.nullcontext(),
             ):
                 # The schedulers' functions, not their names: a name makes dask import
                 # distributed to look for a client (half a second of every local run).
@@ -503,7 +504,10 @@ class DaskExecutor:
 
         try:
             if self.progress:
-                progress(futures)
+                # distributed's text bar writes to standard output, which holds the product
+                # (the score table): the bar goes to standard error like every message.
+                with contextlib.redirect_stdout(sys.stderr):
+                    progress(futures)
             wait(futures)
             for f in futures:
                 f.result()  # re-raise a failed chunk's error here

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -236,14 +236,20 @@ class LocalExecutor:
                     out.append(ds)
         return out
 
-    def run(self) -> xr.Dataset:
-        """Run every chunk and return the merged sweep (beams concatenated in scan order)."""
+    def run(self, on_chunk: Callable[[int, int], None] | None = None) -> xr.Dataset:
+        """Run every chunk and return the merged sweep (beams concatenated in scan order).
+
+        ``on_chunk(done, total)`` is called after each chunk (progress for a caller).
+        """
         if not self.plan.resources:
             self.load()
         static = self.run_static()
         parts: list[list[xr.Dataset]] = []
-        for beams in chunks(self.plan.beam_count, self.options.chunk_beams):
+        every = list(chunks(self.plan.beam_count, self.options.chunk_beams))
+        for beams in every:
             parts.append(self.run_chunk(static, beams))
+            if on_chunk is not None:
+                on_chunk(len(parts), len(every))
         merged = [
             xr.concat(
                 list(group),

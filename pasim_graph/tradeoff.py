@@ -9,6 +9,7 @@ faithful rung that was run.
 
 from __future__ import annotations
 
+import collections
 import json
 import math
 import resource
@@ -16,6 +17,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,6 +25,9 @@ from typing import Any
 import numpy as np
 
 from .graph import Graph
+
+#: A rung process's progress line on standard error: ``PROGRESS done total``.
+PROGRESS = "pasim-tradeoff-progress"
 
 
 class TradeoffError(RuntimeError):
@@ -53,7 +58,13 @@ def ladder_keys(rungs: list[Rung]) -> list[str]:
     return list(dict.fromkeys(k for r in rungs for k in r.params))
 
 
-def run_rung(graph_path: str, overrides: dict[str, Any], seed: int, chunk: int) -> dict[str, Any]:
+def run_rung(
+    graph_path: str,
+    overrides: dict[str, Any],
+    seed: int,
+    chunk: int,
+    on_chunk: Callable[[int, int], None] | None = None,
+) -> dict[str, Any]:
     """Run one rung in this process; returns timings, peak memory and the error fields."""
     from .executor import LocalExecutor, RunOptions
     from .graph import load
@@ -63,7 +74,7 @@ def run_rung(graph_path: str, overrides: dict[str, Any], seed: int, chunk: int) 
     t0 = time.perf_counter()
     executor.load()
     t1 = time.perf_counter()
-    sweep = executor.run()
+    sweep = executor.run(on_chunk=on_chunk)
     t2 = time.perf_counter()
     errors = {
         str(v.attrs.get("moment", k)): (v, dict(v.attrs))
@@ -86,7 +97,9 @@ def _child(spec_file: str) -> None:
     spec = json.loads(Path(spec_file).read_text())
     # One thread, BLAS included: every level is timed on the same footing (per core).
     with threadpool_limits(limits=1, user_api="blas"):
-        out = run_rung(spec["graph"], spec["overrides"], spec["seed"], spec["chunk"])
+        out = run_rung(
+            spec["graph"], spec["overrides"], spec["seed"], spec["chunk"], on_chunk=_report
+        )
     arrays = {k: np.asarray(v.values, dtype=np.float64) for k, (v, _) in out["errors"].items()}
     np.savez(str(spec["errors_file"]), **arrays)  # type: ignore[arg-type]
     periods = {k: a.get("period") for k, (_, a) in out["errors"].items()}
@@ -95,6 +108,38 @@ def _child(spec_file: str) -> None:
             {k: v for k, v in out.items() if k != "errors"} | {"periods": periods},
         )
     )
+
+
+def _report(done: int, total: int) -> None:
+    """A rung's progress, one line on standard error for the parent to read."""
+    print(f"{PROGRESS} {done} {total}", file=sys.stderr, flush=True)
+
+
+def _run_child(spec_file: Path, label: str, log: Any) -> tuple[int, str, str]:
+    """Run a rung's process; its progress lines go to ``log`` as they come (a quarter at a
+    time), the rest of its standard error is kept for a failure's message."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pasim_graph.tradeoff", str(spec_file)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    kept: collections.deque[str] = collections.deque(maxlen=20)
+    start, shown = time.perf_counter(), 0
+    for line in proc.stderr:
+        if line.startswith(PROGRESS):
+            done, total = (int(x) for x in line.split()[1:3])
+            quarter = 4 * done // total
+            if log and quarter > shown:
+                shown = quarter
+                log(
+                    f"level {label}: {done} of {total} chunks ({time.perf_counter() - start:.0f} s)"
+                )
+        else:
+            kept.append(line)
+    out = proc.stdout.read()
+    return proc.wait(), out, "".join(kept)
 
 
 def _std(values: np.ndarray) -> float:
@@ -148,16 +193,12 @@ def tradeoff(
             spec_file = Path(tmp) / f"rung{i}.json"
             spec_file.write_text(json.dumps(spec))
             if log:
-                log(f"level {rung.label}: {settings}")
-            proc = subprocess.run(
-                [sys.executable, "-m", "pasim_graph.tradeoff", str(spec_file)],
-                capture_output=True,
-                text=True,
-            )
-            if proc.returncode != 0:
-                tail = "\n".join(proc.stderr.strip().splitlines()[-5:])
+                log(f"level {rung.label} ({i + 1} of {len(rungs)}): {settings}")
+            code, stdout, stderr = _run_child(spec_file, rung.label, log)
+            if code != 0:
+                tail = "\n".join(stderr.strip().splitlines()[-5:])
                 raise TradeoffError(f"level {rung.label} failed:\n{tail}")
-            numbers = json.loads(proc.stdout.strip().splitlines()[-1])
+            numbers = json.loads(stdout.strip().splitlines()[-1])
             with np.load(str(spec["errors_file"])) as z:
                 errors = {k: z[k] for k in z.files}
             results.append((rung, settings, numbers, errors))

@@ -115,3 +115,17 @@ def test_write_atomic_keeps_the_old_file_when_the_new_one_fails(monkeypatch, tmp
     write_atomic(target, "new")
     assert target.read_text() == "new"
     assert target.stat().st_mode & 0o777 == 0o640  # the file keeps its mode
+
+
+def test_the_progress_bar_goes_to_standard_error(tmp_path):
+    """dask's bar was made without ``out=``: `pasim run ... --progress > scores.txt` put
+    `[####] 100% Completed` at the top of the file and showed nothing on the terminal."""
+    out = tmp_path / "run.zarr"
+    res = run_cli(
+        "run", GENERIC, "--sector", "280:282", "--set", "weather.method=expected",
+        "--progress", "--out", str(out),
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    assert "Completed" in res.stderr, res.stderr
+    assert "Completed" not in res.stdout and "[#" not in res.stdout, res.stdout
+    assert res.stdout.lstrip().startswith("moment"), res.stdout

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import xarray as xr
@@ -50,6 +51,12 @@ def test_tradeoff_json_rows(tmp_path):
     assert rows[1]["std_vs_reference"]["DBZH"] > rows[0]["std_vs_reference"]["DBZH"] > 0
     # No estimator noise: the expected level is closer to the truth than a 16-pulse dwell.
     assert rows[0]["std"]["DBZH"] < rows[1]["std"]["DBZH"]
+    # Progress on standard error while each level runs (it ran for minutes with none), the
+    # table alone on standard output.
+    for i, level in enumerate(["expected", "combined", "covariance"]):
+        assert f"level {level} ({i + 1} of 3)" in res.stderr, res.stderr
+        assert re.search(rf"level {level}: (\d+) of \1 chunks", res.stderr), res.stderr
+    assert "chunks" not in res.stdout
 
 
 def test_tradeoff_unknown_level():
