@@ -28,7 +28,9 @@ CSRS_DB = (0.0, 10.0, 20.0, 30.0, 40.0, 50.0)
 
 
 def chain(overrides: dict[str, Any], seed: int) -> dict[tuple[str, str], Any]:
-    """Every block output of one run of the graph (all its beams in one chunk)."""
+    """Every block output of one run of the graph (all its beams in one chunk): the
+    executor's own per-block step, so the receiver's I/Q and noise power are those the
+    processor read."""
     ex = LocalExecutor(load(GRAPH, overrides), RunOptions(seed=seed, chunk_beams=10**6))
     ex.load()
     values = ex.run_static()
