@@ -38,7 +38,15 @@ from ..signals import (
     POLARIMETRIC_FIELDS,
 )
 from ..timing import cohere_first_trip
-from .gmap import clutter_phase_alignment, clutter_shape, gmap
+from .gmap import (
+    FIRST_LOOK_WINDOW,
+    GMAP_WINDOWS,
+    clutter_phase_alignment,
+    clutter_shape,
+    gmap,
+    gmap_window,
+    select_windows,
+)
 from .output import Censoring, moments_dataset, thresholds
 
 #: Windows offered, by their name in graph files -> scipy.signal.windows name.
@@ -137,7 +145,13 @@ class SpectralProcessor(Censoring, Block):
         MOMENTS, store="moments", doc="estimated moments", fields=(*MOMENT_FIELDS, "CCORH")
     )
 
-    window = Param("hann", type="str", choices=tuple(WINDOWS), doc="data window of the periodogram")
+    window = Param(
+        "hann",
+        type="str",
+        choices=(*WINDOWS, "auto"),
+        doc="data window of the periodogram; auto: GMAP's choice per gate by clutter-to-noise "
+        "ratio (rectangular where no clutter, then Hamming, Blackman, Blackman-Harris)",
+    )
     clutter_filter = Param(
         "none", type="str", choices=("none", "gmap"), doc="clutter filter: none or gmap"
     )
@@ -161,6 +175,52 @@ class SpectralProcessor(Censoring, Block):
     def setup(self) -> None:
         self._threshold_db = thresholds(self.p)
 
+    def _estimate(
+        self,
+        x: np.ndarray,
+        noise: np.ndarray,
+        apply: np.ndarray,
+        w: np.ndarray,
+        prt: float,
+        lam: float,
+        dual: bool,
+        gmap_on: bool,
+    ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """Moments (and the clutter correction) of gates x (gate x pulse x channel) seen
+        through one window ``w``."""
+        n, m = x.shape[:2]
+        nyquist = lam / (4 * prt)
+        v_bins = bin_velocities(m, prt, lam)
+        shape = clutter_shape(w, self.p["clutter_width_ms"], prt, lam)
+        spectra, kept = [], []
+        correction = np.zeros(n)
+        for k in range(2 if dual else 1):
+            s = periodogram(x[..., k], w)
+            if gmap_on:
+                res = gmap(s, noise[:, k], shape, v_bins, nyquist, apply)
+                s = res.spectrum
+                kept.append(~res.removed)
+                if k == 0:
+                    correction = res.correction_db
+            spectra.append(s)
+        est = moments_from_spectrum(spectra[0], w, noise[:, 0], prt, lam)
+        if dual:
+            p_v = spectra[1].sum(axis=-1) - noise[:, 1]
+            f = np.fft.fft(x * w[None, :, None], axis=1)
+            cross = np.conj(f[..., 0]) * f[..., 1] / (m * np.sum(w**2))
+            keep = kept[0] & kept[1] if kept else np.ones(cross.shape, bool)
+            n_h = noise[:, :1] / m
+            n_v = noise[:, 1:2] / m
+            r_hv = np.where(keep, cross, 0).sum(axis=-1)
+            s_h = np.where(keep, spectra[0] - n_h, 0).sum(axis=-1)
+            s_v = np.where(keep, spectra[1] - n_v, 0).sum(axis=-1)
+            ok = (est["S_H"] > 0) & (p_v > 0) & (s_h > 0) & (s_v > 0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                est["ZDR"] = 10 * np.log10(np.where(ok, est["S_H"] / p_v, np.nan))
+                est["RHOHV"] = np.abs(r_hv) / np.sqrt(np.where(ok, s_h * s_v, np.nan))
+                est["PHIDP"] = np.where(ok, np.mod(np.rad2deg(np.angle(r_hv)), 360.0), np.nan)
+        return est, correction
+
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         iq, noise = inputs["iq"], inputs["noise_power"]
         cal = inputs["calibration"]
@@ -180,44 +240,34 @@ class SpectralProcessor(Censoring, Block):
         iq = cohere_first_trip(iq, inputs["beams"])
         dual = bool(cal.attrs.get("dual_polarization", 1)) and chunk.wants(*POLARIMETRIC_FIELDS)
         m = iq.shape[2]
-        w = window(self.p["window"], m)
         nyquist = lam / (4 * prt)
-        v_bins = bin_velocities(m, prt, lam)
-        shape = clutter_shape(w, self.p["clutter_width_ms"], prt, lam)
         n_b, n_g = iq.shape[:2]
-        apply = None
+        x = iq.reshape(n_b * n_g, m, -1).astype(np.complex128)
+        nz = noise.reshape(n_b * n_g, -1)
+        apply = np.ones(n_b * n_g, bool)
         if self.p["clutter_detection"] == "cpa":
-            apply = (clutter_phase_alignment(iq[..., 0]) >= self.p["cpa_threshold"]).ravel()
-        spectra, kept = [], []
+            apply = clutter_phase_alignment(x[..., 0]) >= self.p["cpa_threshold"]
+        gmap_on = self.p["clutter_filter"] == "gmap"
+        if self.p["window"] == "auto":
+            # GMAP's own choice by clutter-to-noise ratio (Siggia and Passarelli 2004).
+            first = periodogram(x[..., 0], gmap_window(FIRST_LOOK_WINDOW, m))
+            choice = select_windows(first, nz[:, 0], self.p["clutter_width_ms"], prt, lam)
+            choice = np.where(apply, choice, 0)
+            groups = [(gmap_window(name, m), choice == i) for i, name in enumerate(GMAP_WINDOWS)]
+        else:
+            groups = [(window(self.p["window"], m), np.ones(n_b * n_g, bool))]
+        est: dict[str, np.ndarray] = {}
         correction = np.zeros(n_b * n_g)
-        for k in range(2 if dual else 1):
-            s = periodogram(iq[..., k].astype(np.complex128), w).reshape(n_b * n_g, m)
-            if self.p["clutter_filter"] == "gmap":
-                res = gmap(s, noise[..., k].ravel(), shape, v_bins, nyquist, apply)
-                s = res.spectrum
-                kept.append(~res.removed)
-                if k == 0:
-                    correction = res.correction_db
-            spectra.append(s)
-        est = moments_from_spectrum(spectra[0], w, noise[..., 0].ravel(), prt, lam)
-        if dual:
-            p_v = spectra[1].sum(axis=-1) - noise[..., 1].ravel()
-            x = np.fft.fft(iq.astype(np.complex128) * w[:, None], axis=2)
-            cross = (np.conj(x[..., 0]) * x[..., 1]).reshape(n_b * n_g, m) / (m * np.sum(w**2))
-            keep = kept[0] & kept[1] if kept else np.ones(cross.shape, bool)
-            n_h = noise[..., 0].ravel()[:, None] / m
-            n_v = noise[..., 1].ravel()[:, None] / m
-            r_hv = np.where(keep, cross, 0).sum(axis=-1)
-            s_h = np.where(keep, spectra[0] - n_h, 0).sum(axis=-1)
-            s_v = np.where(keep, spectra[1] - n_v, 0).sum(axis=-1)
-            ok = (est["S_H"] > 0) & (p_v > 0) & (s_h > 0) & (s_v > 0)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                est["ZDR"] = 10 * np.log10(np.where(ok, est["S_H"] / p_v, np.nan))
-                est["RHOHV"] = np.abs(r_hv) / np.sqrt(np.where(ok, s_h * s_v, np.nan))
-                est["PHIDP"] = np.where(ok, np.mod(np.rad2deg(np.angle(r_hv)), 360.0), np.nan)
-            beta = float(cal.attrs.get("transmit_differential_phase_deg", 0.0))
-            if beta:
-                est["PHIDP"] = np.mod(est["PHIDP"] - beta, 360.0)
+        for w, sel in groups:
+            if not sel.any():
+                continue
+            part, corr = self._estimate(x[sel], nz[sel], apply[sel], w, prt, lam, dual, gmap_on)
+            for k, v in part.items():
+                est.setdefault(k, np.full(n_b * n_g, np.nan))[sel] = v
+            correction[sel] = corr
+        beta = float(cal.attrs.get("transmit_differential_phase_deg", 0.0))
+        if beta and "PHIDP" in est:
+            est["PHIDP"] = np.mod(est["PHIDP"] - beta, 360.0)
         est = {k: v.reshape(n_b, n_g) for k, v in est.items()}
         ds = moments_dataset(
             est,
