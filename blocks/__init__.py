@@ -14,12 +14,6 @@ the sub-commands that measure a graph (``pasim waveform``, ``pasim pattern``).
 
 from pathlib import Path
 
-from . import deprecated
-
 #: The default scene carried with the package: a real NEXRAD Level-II volume (KLBB,
 #: 2016-06-01 15:00 UTC, public-domain NOAA data) with a convective line north-west of the radar.
 DEFAULT_SCENE = Path(__file__).parent / "data" / "KLBB20160601_150025_V06"
-
-# The flat module paths of earlier releases (``pasim_blocks.antenna``, ...) still import, with
-# a deprecation warning.
-deprecated.install()

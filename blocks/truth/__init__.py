@@ -2,9 +2,3 @@
 Real NEXRAD Level-II data (``truth.nexrad`` in :mod:`.nexrad`, read by :mod:`.nexrad_io`) and
 synthetic scenes (``scene.uniform``, ``scene.core`` in :mod:`.scenes`).
 """
-
-from ..deprecated import forward
-
-# ``pasim_blocks.truth`` was the module now at :mod:`.nexrad`: its names still resolve here, with
-# a deprecation warning, for one release.
-__getattr__ = forward(__name__)

@@ -6,9 +6,3 @@ Shared by them: the beam's weights of the cells (:mod:`.beams`), Doppler spectra
 colouring (:mod:`.spectra`), fast time (the range response, :mod:`.fasttime`) and the
 polarimetric scattering and coupling (:mod:`.polarimetry`).
 """
-
-from ..deprecated import forward
-
-# ``pasim_blocks.weather`` was the module now at :mod:`.channel` (and its helpers): its names
-# still resolve here, with a deprecation warning, for one release.
-__getattr__ = forward(__name__)
