@@ -260,7 +260,7 @@ class NexradTruth(Block):
                 return choose(available)
 
             tree, kind = open_radar_file(path)
-            if only_rhis(tree):
+            if only_rhis(tree, f"{path} ({kind})"):
                 # RHIs: their rays regrouped by elevation, over the RHIs' own azimuths.
                 read = rhi_sweeps(tree, kind, Path(path), remember)
             else:
