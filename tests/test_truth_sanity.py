@@ -113,3 +113,57 @@ def test_a_character_array_start_time_is_read_as_text(klbb, tmp_path, capsys):
 def test_a_start_time_that_is_not_a_time_is_refused_by_name(klbb, tmp_path):
     path = damaged(klbb, tmp_path, lambda nc: char_array_time(nc, "not a time"))
     assert "`time_coverage_start` is 'not a time', not an ISO 8601 time" in refusal(path)
+
+
+def load_truth(path, **params):
+    """The truth block's load on ``path`` (what ``pasim run`` does first)."""
+    from pasim_blocks.truth.nexrad import NexradTruth
+
+    return NexradTruth(name="truth", path=str(path), **params).load()
+
+
+def test_an_emptied_sweep_is_refused_naming_the_file_and_sweep(klbb, tmp_path):
+    # As a volume it failed with numpy's "attempt to get argmin of an empty sequence".
+    def empty(nc):
+        nc["sweep_end_ray_index"][:] = nc["sweep_start_ray_index"][:] - 1
+
+    path = damaged(klbb, tmp_path, empty)
+    for sweeps in ("single", "volume"):
+        with pytest.raises(ValueError) as info:
+            load_truth(path, sweeps=sweeps)
+        message = str(info.value)
+        assert message.startswith(f"{path} (CfRadial 1), sweep_0: holds 0 rays of 1832 gates")
+        assert "\n" not in message
+
+
+@pytest.mark.parametrize("fraction", [0.05, 0.3, 0.6, 0.95])
+def test_a_truncated_file_is_refused_in_one_line_naming_it(klbb, tmp_path, fraction):
+    data = klbb[1].read_bytes()
+    path = tmp_path / "truncated.nc"
+    path.write_bytes(data[: int(len(data) * fraction)])
+    with pytest.raises(ValueError) as info:
+        load_truth(path)
+    assert str(info.value).startswith(str(path)) and "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "fails, words",
+    [
+        (lambda: np.argmin([]), "ValueError: attempt to get argmin of an empty sequence"),
+        (lambda: np.zeros(0).max(), "ValueError: zero-size array to reduction operation"),
+        (lambda: 1.0 / 0.0, "ZeroDivisionError: float division by zero"),
+        (lambda: np.linalg.svd(np.full((3, 3), np.nan)), "LinAlgError: SVD did not converge"),
+    ],
+)
+def test_numpy_failures_on_a_damaged_file_name_the_file_and_sweep(fails, words):
+    from pasim_blocks.truth.radar_files import damaged as named
+
+    with pytest.raises(ValueError) as info:
+        with named("x.nc (CfRadial 1), sweep_3"):
+            fails()
+    assert str(info.value).startswith("x.nc (CfRadial 1), sweep_3: damaged or empty, cannot be ")
+    assert words in str(info.value)
+    # a refusal of ours, which names the file, passes unchanged
+    with pytest.raises(ValueError, match=r"^x.nc: no sweep$"):
+        with named("x.nc (CfRadial 1), sweep_3"):
+            raise ValueError("x.nc: no sweep")

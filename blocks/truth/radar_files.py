@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from . import sizes
 from .gridding import (
     check_sector,
     clean_fields,
@@ -149,6 +150,13 @@ def open_radar_file(path: str | Path) -> tuple[Any, str]:
     with _unwrapped(path) as plain:
         with plain.open("rb") as f:
             head = f.read(64)
+        # What the file declares, before a reader allocates it (a damaged header that h5py
+        # or netCDF4 cannot read is left to the readers, which name it).
+        with contextlib.suppress(OSError, KeyError, RuntimeError):
+            if head.startswith(b"\x89HDF"):
+                sizes.check_hdf5(plain, path)
+            elif head.startswith(b"CDF"):
+                sizes.check_netcdf3(plain, path)
         backends = _backends()
         for label in candidate_formats(head, plain):
             opener = backends.get(label)
@@ -158,10 +166,16 @@ def open_radar_file(path: str | Path) -> tuple[Any, str]:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
                     tree = opener(str(plain))
-                    if not any(str(c).startswith("sweep_") for c in tree.children):
+                    sweeps = [str(c) for c in tree.children if str(c).startswith("sweep_")]
+                    if not sweeps:
                         raise ValueError("no sweep in it")
+                    sizes.check_tree(
+                        f"{path} ({label})", [(s, tree[s].to_dataset()) for s in sweeps]
+                    )
                     tree = tree.load()  # read now: a temporary copy goes away
                 return tree, label
+            except sizes.SizeError:
+                raise
             except Exception as exc:
                 first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
                 tried.append(f"{label}: {first[:100]}")
@@ -217,13 +231,42 @@ def read_radar_sweeps(
     return sweeps_from_tree(tree, kind, path, choose, sector, margin)
 
 
+@contextlib.contextmanager
+def damaged(where: str, file: str | None = None) -> Iterator[None]:
+    """Name ``where`` (the file and its sweep, RHI or variable) in a failure of numpy or an
+    xradar accessor on a damaged or emptied file ("zero-size array to reduction operation",
+    "attempt to get argmin of an empty sequence", "SVD did not converge", "float division by
+    zero", a missing key): one line, not numpy's words alone. A refusal of ours (it names the
+    file already) passes unchanged."""
+    file = file or where.split(" (", 1)[0]
+    try:
+        yield
+    except (
+        ValueError,
+        ArithmeticError,
+        IndexError,
+        KeyError,
+        TypeError,
+        OSError,
+        RuntimeError,
+        np.linalg.LinAlgError,
+    ) as exc:
+        text = str(exc).splitlines()[0] if str(exc) else ""
+        if isinstance(exc, ValueError) and file in text:
+            raise
+        raise ValueError(
+            f"{where}: damaged or empty, cannot be read ({type(exc).__name__}: {text[:160]})"
+        ) from None
+
+
 def sweep_modes(tree: Any, where: str = "radar file") -> list[tuple[str, float, str]]:
     """(name, fixed angle, mode) of each sweep of an opened radar file, in file order
     (``where``, the file, names it in a refusal)."""
     sweeps = sorted((str(c) for c in tree.children if str(c).startswith("sweep_")), key=_number)
     described = []
     for name in sweeps:
-        ds = tree[name].to_dataset()
+        with damaged(f"{where}, {name}"):
+            ds = tree[name].to_dataset()
         mode = text_value(ds["sweep_mode"].values) if "sweep_mode" in ds else ""
         fixed = np.asarray(ds["sweep_fixed_angle"] if "sweep_fixed_angle" in ds else []).ravel()
         angle = float(fixed[0]) if len(fixed) else float("nan")
@@ -264,7 +307,8 @@ def sweeps_from_tree(
                 f"{path}: no sweep within {_MAX_ELEVATION_MISMATCH_DEG} deg of elevation "
                 f"{elevation_deg} deg; available fixed angles (deg): {angles}"
             )
-        out.append(_truth_sweep(tree, kind, path, best, sector, margin))
+        with damaged(f"{path} ({kind}), {best[0]}"):
+            out.append(_truth_sweep(tree, kind, path, best, sector, margin))
     return out
 
 
@@ -443,6 +487,7 @@ def is_level2(path: str | Path) -> bool:
 
 __all__ = [
     "ALIASES",
+    "damaged",
     "file_nyquist",
     "file_site",
     "is_level2",

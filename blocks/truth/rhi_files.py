@@ -18,7 +18,7 @@ import numpy as np
 
 from .gridding import clean_fields, gate_width, wrap360
 from .nexrad_io import TruthSweep
-from .radar_files import field_map, file_nyquist, file_site, sweep_axes, sweep_modes
+from .radar_files import damaged, field_map, file_nyquist, file_site, sweep_axes, sweep_modes
 
 
 def only_rhis(tree: Any, where: str = "radar file") -> bool:
@@ -33,6 +33,13 @@ def rhi_sweeps(
 ) -> list[TruthSweep]:
     """Constant-elevation sweeps made of an RHI file's rays; ``choose`` is given the grid's
     elevations and returns those to keep (each the nearest grid elevation)."""
+    with damaged(f"{path} ({kind}), its RHIs", str(path)):
+        return _rhi_sweeps(tree, kind, path, choose)
+
+
+def _rhi_sweeps(
+    tree: Any, kind: str, path: Path, choose: Callable[[list[float]], list[float]]
+) -> list[TruthSweep]:
     rhis = []
     for name, angle, _ in sweep_modes(tree, f"{path} ({kind})"):
         ds = tree[name].to_dataset()
