@@ -480,9 +480,9 @@ def test_uf_rhis_run_as_a_volume_truth():
     ideal 0.1 deg beam (narrower than the rays' 0.19 deg spacing) and a 0.2 us pulse (the
     file's gates are 150 m) give the ray nearest its elevation (the file's own values) within
     a median 0.5 dB (measured: 0.13 dB)."""
-    from .test_radar_files import shared
+    from .test_radar_files import sample
 
-    path = shared("MC3E_NPOL_2011_0524_2356_hid.uf.gz")
+    path = sample("MC3E_NPOL_2011_0524_2356_hid_300gates.uf.gz")  # 300 of the 999 gates
     block = NexradTruth(
         name="truth", path=str(path), sweeps="volume", elevation_min_deg=0.5, elevation_max_deg=19.5
     )
