@@ -123,3 +123,29 @@ def test_sweep_bounds(rays, gates):
     with pytest.raises(SizeError, match=r"^x.h5: declares"):
         check_sweep("x.h5", rays, gates)
     check_sweep("x.h5", 7200, 16_000)  # a 0.05 deg sweep of 16,000 gates is read
+
+
+def test_a_cfradial2_store_declaring_a_billion_gates_is_refused_before_opening(tmp_path):
+    # xarray reads an index coordinate whole when it opens a store: the store's `range` of
+    # 1e9 gates took 7.9 GB and 140 s before it was refused by the sweep's bound.
+    import zarr
+
+    path = tmp_path / "big.zarr"
+    root = zarr.open_group(path, mode="w", zarr_format=3)
+    sweep = root.create_group("sweep_0")
+    n = 1_000_000_000
+    sweep.create_array(
+        "DBZH", shape=(360, n), chunks=(360, 1 << 20), dtype="f4",
+        dimension_names=("azimuth", "range"),
+    )  # fmt: skip
+    sweep.create_array(
+        "range", shape=(n,), chunks=(1 << 20,), dtype="f4", dimension_names=("range",)
+    )
+    sweep.create_array("azimuth", shape=(360,), dtype="f8", dimension_names=("azimuth",))[:] = (
+        np.arange(360.0)
+    )
+    result = measured(
+        "from pasim_blocks.truth.radar_files import read_radar_sweep",
+        f"read_radar_sweep({str(path)!r}, 0.5)",
+    )
+    refused_quickly(result, str(path), "sweep_0/DBZH", "1,000,000,000 gates", "before reading")

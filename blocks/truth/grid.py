@@ -18,7 +18,7 @@ from .gridding import clean_fields, sector_order
 from .nexrad import truth_dataset
 from .nexrad_io import TruthSweep
 from .radar_files import damaged, field_map
-from .sizes import check_grid
+from .sizes import check_grid, check_zarr
 from .volume import (
     EARTH_RADIUS_M,
     INTERPOLATIONS,
@@ -125,6 +125,8 @@ def open_grid(path: str | Path) -> Grid:
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"gridded truth not found (no such file): {path}")
+    if path.is_dir():
+        check_zarr(path)
     try:
         ds = xr.open_zarr(path) if path.is_dir() else xr.open_dataset(path)
     except Exception as exc:

@@ -142,10 +142,14 @@ def open_radar_file(path: str | Path) -> tuple[Any, str]:
     if not path.exists():
         raise FileNotFoundError(f"radar file not found (no such file): {path}")
     if path.is_dir():
+        sizes.check_zarr(path)
         try:
-            return xr.open_datatree(path, engine="zarr"), "CfRadial 2 (Zarr)"
+            tree = xr.open_datatree(path, engine="zarr")  # lazy but for index coordinates
         except Exception as exc:
             raise ValueError(f"{path}: a folder, but not a CfRadial 2 Zarr store ({exc})") from None
+        sweeps = [str(c) for c in tree.children if str(c).startswith("sweep_")]
+        sizes.check_tree(f"{path} (CfRadial 2)", [(s, tree[s].to_dataset()) for s in sweeps])
+        return tree, "CfRadial 2 (Zarr)"
     tried: list[str] = []
     with _unwrapped(path) as plain:
         with plain.open("rb") as f:

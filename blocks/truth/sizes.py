@@ -124,6 +124,40 @@ def check_netcdf3(path: Path, shown: Path | None = None) -> None:
     check_total(str(name), total)
 
 
+def check_zarr(path: Path) -> None:
+    """A Zarr store (a CfRadial 2 volume, a gridded truth): every array's declared shape from
+    its metadata (``zarr.json``, or ``.zarray`` of Zarr 2), before xarray opens it (xarray
+    reads an index coordinate, ``range`` among them, whole at the open)."""
+    import json
+
+    total = 0
+    for meta in sorted([*path.rglob("zarr.json"), *path.rglob(".zarray")]):
+        try:
+            node = json.loads(meta.read_text()[: 1 << 20])
+        except (OSError, ValueError):
+            continue  # the reader names a damaged store
+        if not isinstance(node, dict) or (
+            meta.name == "zarr.json" and node.get("node_type") != "array"
+        ):
+            continue
+        shape = [int(n) for n in node.get("shape", []) if isinstance(n, int | float)]
+        name = str(meta.parent.relative_to(path))
+        if len(shape) == 2:
+            check_sweep(f"{path}: {name} of shape {tuple(shape)}", shape[0], shape[1])
+        elif len(shape) == 1 and meta.parent.name == "range":
+            check_sweep(f"{path}: {name}", 0, shape[0])
+        size = 1
+        for n in shape:
+            size *= n
+        if size > MAX_GRID_POINTS:
+            raise SizeError(
+                f"{path}: {name} declares {' x '.join(map(str, shape))} = {size:,} values, "
+                f"more than {MAX_GRID_POINTS:,}; refused before reading"
+            )
+        total += size
+    check_total(str(path), total)
+
+
 def check_tree(where: str, sweeps: Iterable[Any]) -> None:
     """An opened (lazy) radar file's sweeps, before their data are loaded: each sweep's
     azimuth and range sizes and the values of all its variables."""
@@ -163,4 +197,5 @@ __all__ = [
     "check_sweep",
     "check_total",
     "check_tree",
+    "check_zarr",
 ]
