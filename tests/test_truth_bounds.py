@@ -26,7 +26,7 @@ ODIM = FIXTURES / "truth" / "T_PAZD63_C_LFPW_20230420065331.h5"
 SECONDS, MEGABYTES = 2.0, 300.0
 
 MEASURE = """
-import json, resource, sys, time
+import json, sys, time
 {imports}
 start = time.perf_counter()
 try:
@@ -35,7 +35,10 @@ try:
 except ValueError as exc:
     message = str(exc)
 seconds = time.perf_counter() - start
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+# VmHWM, the peak resident memory of this process's own address space: ru_maxrss would
+# carry over the parent's peak across fork and exec (a large pytest process's)
+status = open("/proc/self/status").read()
+peak = int(status.split("VmHWM:")[1].split()[0]) / 1024
 print(json.dumps({{"seconds": seconds, "peak_mb": peak, "message": message}}))
 """
 
@@ -43,7 +46,8 @@ print(json.dumps({{"seconds": seconds, "peak_mb": peak, "message": message}}))
 def measured(imports: str, call: str) -> dict:
     """Run ``call`` after ``imports`` in a fresh interpreter, under a 4 GiB address-space
     limit (a regression fails instead of taking the machine): seconds of the call, the
-    process's peak resident memory (MB), and the refusal's message."""
+    process's peak resident memory (MB, VmHWM; imports included), and the refusal's
+    message."""
     limit = "import resource; resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))\n"
     code = MEASURE.format(imports=limit + imports, call=call)
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
