@@ -400,7 +400,11 @@ def add_graph_arguments(parser: argparse.ArgumentParser) -> None:
     For commands of plugin packages too, which then get the graph with :func:`load_graph`.
     """
     parser.add_argument(
-        "--truth", metavar="FILE", help="truth radar file (NEXRAD Level-II) for the truth block"
+        "--truth",
+        metavar="FILE",
+        help="truth file for the truth block: NEXRAD Level-II, or a radar file xradar reads "
+        "(CfRadial 1, a CfRadial 2 Zarr store, ODIM_H5, GAMIC, IRIS/Sigmet, UF, Rainbow, "
+        "Furuno); for truth.grid a gridded netCDF file or Zarr store",
     )
     parser.add_argument(
         "--sector",

@@ -375,6 +375,12 @@ _PY_TYPES: dict[str, tuple[type, ...]] = {
 }
 
 
+def is_zarr_store(path: str) -> bool:
+    """True for a folder that is a Zarr store (v3 ``zarr.json`` or v2 ``.zgroup``): a path
+    parameter may name one (a gridded truth, a CfRadial 2 volume)."""
+    return any(os.path.isfile(os.path.join(path, n)) for n in ("zarr.json", ".zgroup"))
+
+
 @dataclass(frozen=True)
 class Param:
     """A block parameter: type, default, unit, bounds and a one-line doc.
@@ -427,7 +433,7 @@ class Param:
         if self.type == "path" and value:
             if not os.path.exists(value):
                 return f"expected an existing file, found {value!r} (no such file)"
-            if os.path.isdir(value):
+            if os.path.isdir(value) and not is_zarr_store(value):
                 return f"expected a file, found {value!r}, which is a directory"
             if not os.access(value, os.R_OK):
                 return f"expected a readable file, found {value!r} (permission denied)"

@@ -8,10 +8,12 @@ What each test compares against:
   reader): read back through the xradar path, every field equals the Level-II sweep's (an
   independent path through a format round trip), and a run at the ``expected`` level gives
   the same scores to the last digit;
-* the bundled example files of ``../shared/data`` (skipped where it is absent): IRIS runs and
-  scores all six moments; ODIM (DBZH, TH, VRADH) runs single polarisation and without width
-  and says so; UF RHIs are refused by name (the truth block reads PPIs by elevation);
-  a file no backend reads names each format tried.
+* the sample files of ``tests/fixtures/truth`` (cut from the public files, see its README):
+  ODIM (DBZH, TH, VRADH) runs single polarisation and without width and says so; UF RHIs are
+  refused by name (the truth block reads PPIs by elevation); a Radx CfRadial 1 file and a
+  Rainbow volume read; a file no backend reads names each format tried;
+* IRIS runs and scores all six moments: the IRIS file of ``../shared/data`` (no library
+  writes IRIS, so there is no small sample; skipped where it is absent).
 """
 
 from __future__ import annotations
@@ -22,10 +24,15 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from .conftest import GRAPHS, ROOT, pasim_out
+from .conftest import FIXTURES, GRAPHS, ROOT, pasim_out
 
 SHARED = ROOT.parent / "shared" / "data"
 GENERIC = str(GRAPHS / "generic_radar.yaml")
+
+
+def sample(name: str):
+    """A sample truth file of tests/fixtures/truth (in the repository: never skipped)."""
+    return FIXTURES / "truth" / name
 
 
 def shared(name: str):
@@ -141,7 +148,7 @@ def test_iris_sigmet_runs_and_scores_all_six_moments(tmp_path, capsys):
 
 
 def test_odim_runs_single_polarisation_and_says_so(tmp_path, capsys):
-    path = shared("T_PAZD63_C_LFPW_20230420065331.h5")
+    path = sample("T_PAZD63_C_LFPW_20230420065331.h5")
     out = tmp_path / "odim.zarr"
     code, _, err = pasim_out(
         capsys, "run", GENERIC, "--truth", str(path), "--sector", "0:90", "--out", str(out)
@@ -153,7 +160,7 @@ def test_odim_runs_single_polarisation_and_says_so(tmp_path, capsys):
 
 
 def test_uf_rhis_are_refused_by_name(tmp_path, capsys):
-    path = shared("MC3E_NPOL_2011_0524_2356_hid.uf.gz")
+    path = sample("MC3E_NPOL_2011_0524_2356_hid_300gates.uf.gz")
     code, _, err = pasim_out(
         capsys, "run", GENERIC, "--truth", str(path), "--out", str(tmp_path / "s")
     )
@@ -168,3 +175,23 @@ def test_a_file_no_backend_reads_names_the_formats_tried(tmp_path, capsys):
     )
     assert code == 2, err
     assert "no radar-file reader opens it" in err and "IRIS/Sigmet" in err and "UF" in err, err
+
+
+def test_a_radx_cfradial1_file_reads_with_its_character_array_time():
+    from pasim_blocks.truth.radar_files import read_radar_sweep
+
+    sweep = read_radar_sweep(sample("houkasacrcfrM1.a1.20210922.150006_300gates.nc"), 1.0)
+    assert sweep.site["time_coverage_start"] == "2021-09-22T15:00:06Z"
+    assert sweep.site["instrument_name"] == "KaSACR-1"
+    assert sweep.range_m.size == 300 and abs(sweep.range_m[0] - 403.07) < 0.01
+    assert {"DBZH", "VRADH"} <= set(sweep.fields) and sweep.azimuth_deg.size == 61
+
+
+def test_a_rainbow_volume_reads():
+    from pasim_blocks.truth.radar_files import read_radar_sweep
+
+    sweep = read_radar_sweep(sample("2013051000000600dBZ.vol"), 0.5)
+    assert abs(sweep.elevation_deg - 0.6) < 0.05
+    assert sweep.azimuth_deg.size == 360 and sweep.range_m.size == 400
+    assert sweep.site["time_coverage_start"] == "2013-05-10T00:00:06Z"
+    assert np.isfinite(sweep.fields["DBZH"]).sum() > 1000

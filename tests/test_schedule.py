@@ -130,3 +130,23 @@ def test_atd_runs_its_schedule_file(tmp_path, capsys):
     code, stdout, err = _run_schedule(capsys, GRAPHS / "atd_schedule.yaml", tmp_path / "s")
     assert code == 0, err
     assert "volume (2 sweeps" in stdout
+
+
+def test_a_byte_order_mark_is_not_part_of_the_header(tmp_path):
+    # Spreadsheets write UTF-8 CSV with a BOM: it was read as part of the first column's name,
+    # and the file refused for "missing column(s) azimuth_deg".
+    path = tmp_path / "excel.csv"
+    path.write_bytes(b"\xef\xbb\xbf" + f"{HEADER}\n300,0.5,16,0.003\n".encode())
+    schedule, problems = read_schedule(str(path))
+    assert problems == [] and schedule is not None
+    assert schedule.azimuth.tolist() == [300.0]
+
+
+def test_a_column_given_twice_is_refused_by_name(tmp_path):
+    # The first of the two was taken, silently.
+    path = _csv(tmp_path, HEADER + ",elevation_deg", "300,0.5,16,0.003,1.5")
+    schedule, problems = read_schedule(path)
+    assert schedule is None
+    assert problems == [
+        f"{path}: row 1 (the header): column 'elevation_deg' appears 2 times; give each column once"
+    ]

@@ -480,9 +480,9 @@ def test_uf_rhis_run_as_a_volume_truth():
     ideal 0.1 deg beam (narrower than the rays' 0.19 deg spacing) and a 0.2 us pulse (the
     file's gates are 150 m) give the ray nearest its elevation (the file's own values) within
     a median 0.5 dB (measured: 0.13 dB)."""
-    from .test_radar_files import shared
+    from .test_radar_files import sample
 
-    path = shared("MC3E_NPOL_2011_0524_2356_hid.uf.gz")
+    path = sample("MC3E_NPOL_2011_0524_2356_hid_300gates.uf.gz")  # 300 of the 999 gates
     block = NexradTruth(
         name="truth", path=str(path), sweeps="volume", elevation_min_deg=0.5, elevation_max_deg=19.5
     )
@@ -498,3 +498,39 @@ def test_uf_rhis_run_as_a_volume_truth():
     echo = np.isfinite(own) & (own > 10) & (truth["range"].values > 5e3)
     assert echo.sum() > 1000
     assert np.median(np.abs(dbz[echo] - own[echo])) < 0.5
+
+
+def test_a_zarr_store_is_read_as_a_gridded_truth(tmp_path, capsys):
+    """docs/volume.md says truth.grid reads a Zarr store: the path parameter refused any folder
+    ("expected a file, found ..., which is a directory"). The store reads as the same grid as
+    its netCDF file, validates, and is part of the resume key file by file."""
+    from pasim_blocks.truth.grid import open_grid
+
+    from pasim_graph.resume_key import input_digests
+
+    nc = storm_file(tmp_path)
+    store = tmp_path / "storm.zarr"
+    xr.open_dataset(nc).to_zarr(store)
+    a, b = open_grid(nc), open_grid(store)
+    assert a.kind == b.kind == "cartesian"
+    for moment, values in a.fields.items():
+        np.testing.assert_array_equal(b.fields[moment], values)
+    text = (
+        (GRAPHS / "generic_radar.yaml")
+        .read_text()
+        .replace(
+            "truth:    {type: truth.nexrad, params: {elevation_deg: 0.5}}",
+            f"truth:    {{type: truth.grid, params: {{path: {store}, x_m: -30000.0, y_m: 0.0}}}}",
+        )
+    )
+    graph = tmp_path / "zarr.yaml"
+    graph.write_text(text)
+    code, _, err = pasim_out(capsys, "validate", str(graph))
+    assert code == 0, err
+    from pasim_graph.graph import load as load_graph
+
+    before = input_digests(load_graph(graph))["truth.path"]
+    (store / "reflectivity" / "zarr.json").write_text(
+        (store / "reflectivity" / "zarr.json").read_text().replace("dBZ", "dBz")
+    )
+    assert input_digests(load_graph(graph))["truth.path"] != before

@@ -17,7 +17,8 @@ from ..signals import TRUTH
 from .gridding import clean_fields, sector_order
 from .nexrad import truth_dataset
 from .nexrad_io import TruthSweep
-from .radar_files import field_map
+from .radar_files import damaged, field_map
+from .sizes import check_grid, check_zarr
 from .volume import (
     EARTH_RADIUS_M,
     INTERPOLATIONS,
@@ -69,6 +70,11 @@ class Grid:
             raise ValueError(f"gridded truth {source}: " + "; ".join(problems))
         assert z is not None and horizontal is not None
         self.kind, (ya, xa) = horizontal
+        declared = [str(v) for v in (z, ya, xa, *self.mapping.values())]
+        check_grid(
+            f"gridded truth {source}",
+            {v: (tuple(map(str, ds[v].dims)), tuple(ds[v].shape)) for v in declared},
+        )
         axes = [
             _metres(ds[z]),
             _metres(ds[ya]) if self.kind == "cartesian" else ds[ya].values.astype(np.float64),
@@ -119,11 +125,14 @@ def open_grid(path: str | Path) -> Grid:
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"gridded truth not found (no such file): {path}")
+    if path.is_dir():
+        check_zarr(path)
     try:
         ds = xr.open_zarr(path) if path.is_dir() else xr.open_dataset(path)
     except Exception as exc:
         raise ValueError(f"gridded truth {path}: not a netCDF file or Zarr store ({exc})") from None
-    return Grid(ds, path.name)
+    with damaged(f"gridded truth {path}", path.name):
+        return Grid(ds, path.name)
 
 
 def destination(

@@ -227,7 +227,7 @@ class NexradTruth(Block):
         """The reference sweep and the volume's variables (only the sweeps the scan needs)."""
         from .gridding import check_sector
         from .nexrad_io import read_truth_sweeps, volume_angles
-        from .radar_files import is_level2, open_radar_file, sweeps_from_tree
+        from .radar_files import damaged, is_level2, open_radar_file, sweeps_from_tree
         from .rhi_files import only_rhis, rhi_sweeps
 
         low, high = self.p["elevation_min_deg"], self.p["elevation_max_deg"]
@@ -260,7 +260,7 @@ class NexradTruth(Block):
                 return choose(available)
 
             tree, kind = open_radar_file(path)
-            if only_rhis(tree):
+            if only_rhis(tree, f"{path} ({kind})"):
                 # RHIs: their rays regrouped by elevation, over the RHIs' own azimuths.
                 read = rhi_sweeps(tree, kind, Path(path), remember)
             else:
@@ -269,9 +269,10 @@ class NexradTruth(Block):
         chosen = choose(angles)
         reference = read[int(np.argmin([abs(a - wanted) for a in chosen]))]
         width = float(self.p["sweep_beamwidth_deg"])
-        variables, attrs = volume_variables(
-            read, reference, self.p["elevation_interpolation"], width
-        )
+        with damaged(f"{path}: its sweeps as a volume", str(path)):
+            variables, attrs = volume_variables(
+                read, reference, self.p["elevation_interpolation"], width
+            )
         lo, hi = covered(variables["sweep_elevation"][1], width)
         warnings.warn(
             f"truth {reference.source}: volume of {len(read)} sweeps ("

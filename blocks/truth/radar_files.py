@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from . import sizes
 from .gridding import (
     check_sector,
     clean_fields,
@@ -141,14 +142,25 @@ def open_radar_file(path: str | Path) -> tuple[Any, str]:
     if not path.exists():
         raise FileNotFoundError(f"radar file not found (no such file): {path}")
     if path.is_dir():
+        sizes.check_zarr(path)
         try:
-            return xr.open_datatree(path, engine="zarr"), "CfRadial 2 (Zarr)"
+            tree = xr.open_datatree(path, engine="zarr")  # lazy but for index coordinates
         except Exception as exc:
             raise ValueError(f"{path}: a folder, but not a CfRadial 2 Zarr store ({exc})") from None
+        sweeps = [str(c) for c in tree.children if str(c).startswith("sweep_")]
+        sizes.check_tree(f"{path} (CfRadial 2)", [(s, tree[s].to_dataset()) for s in sweeps])
+        return tree, "CfRadial 2 (Zarr)"
     tried: list[str] = []
     with _unwrapped(path) as plain:
         with plain.open("rb") as f:
             head = f.read(64)
+        # What the file declares, before a reader allocates it (a damaged header that h5py
+        # or netCDF4 cannot read is left to the readers, which name it).
+        with contextlib.suppress(OSError, KeyError, RuntimeError):
+            if head.startswith(b"\x89HDF"):
+                sizes.check_hdf5(plain, path)
+            elif head.startswith(b"CDF"):
+                sizes.check_netcdf3(plain, path)
         backends = _backends()
         for label in candidate_formats(head, plain):
             opener = backends.get(label)
@@ -158,10 +170,16 @@ def open_radar_file(path: str | Path) -> tuple[Any, str]:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
                     tree = opener(str(plain))
-                    if not any(str(c).startswith("sweep_") for c in tree.children):
+                    sweeps = [str(c) for c in tree.children if str(c).startswith("sweep_")]
+                    if not sweeps:
                         raise ValueError("no sweep in it")
+                    sizes.check_tree(
+                        f"{path} ({label})", [(s, tree[s].to_dataset()) for s in sweeps]
+                    )
                     tree = tree.load()  # read now: a temporary copy goes away
                 return tree, label
+            except sizes.SizeError:
+                raise
             except Exception as exc:
                 first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
                 tried.append(f"{label}: {first[:100]}")
@@ -217,14 +235,50 @@ def read_radar_sweeps(
     return sweeps_from_tree(tree, kind, path, choose, sector, margin)
 
 
-def sweep_modes(tree: Any) -> list[tuple[str, float, str]]:
-    """(name, fixed angle, mode) of each sweep of an opened radar file, in file order."""
+@contextlib.contextmanager
+def damaged(where: str, file: str | None = None) -> Iterator[None]:
+    """Name ``where`` (the file and its sweep, RHI or variable) in a failure of numpy or an
+    xradar accessor on a damaged or emptied file ("zero-size array to reduction operation",
+    "attempt to get argmin of an empty sequence", "SVD did not converge", "float division by
+    zero", a missing key): one line, not numpy's words alone. A refusal of ours (it names the
+    file already) passes unchanged."""
+    file = file or where.split(" (", 1)[0]
+    try:
+        yield
+    except (
+        ValueError,
+        ArithmeticError,
+        IndexError,
+        KeyError,
+        TypeError,
+        OSError,
+        RuntimeError,
+        np.linalg.LinAlgError,
+    ) as exc:
+        text = str(exc).splitlines()[0] if str(exc) else ""
+        if isinstance(exc, ValueError) and file in text:
+            raise
+        raise ValueError(
+            f"{where}: damaged or empty, cannot be read ({type(exc).__name__}: {text[:160]})"
+        ) from None
+
+
+def sweep_modes(tree: Any, where: str = "radar file") -> list[tuple[str, float, str]]:
+    """(name, fixed angle, mode) of each sweep of an opened radar file, in file order
+    (``where``, the file, names it in a refusal)."""
     sweeps = sorted((str(c) for c in tree.children if str(c).startswith("sweep_")), key=_number)
     described = []
     for name in sweeps:
-        ds = tree[name].to_dataset()
-        mode = str(np.asarray(ds["sweep_mode"]).item()) if "sweep_mode" in ds else ""
-        angle = float(np.asarray(ds["sweep_fixed_angle"]).ravel()[0])
+        with damaged(f"{where}, {name}"):
+            ds = tree[name].to_dataset()
+        mode = text_value(ds["sweep_mode"].values) if "sweep_mode" in ds else ""
+        fixed = np.asarray(ds["sweep_fixed_angle"] if "sweep_fixed_angle" in ds else []).ravel()
+        angle = float(fixed[0]) if len(fixed) else float("nan")
+        if not -360.0 <= angle <= 360.0:
+            raise ValueError(
+                f"{where}, {name}: `sweep_fixed_angle` is "
+                + (f"{angle:g} deg, not in [-360, 360]" if len(fixed) else "missing")
+            )
         described.append((name, angle, mode))
     return described
 
@@ -238,7 +292,7 @@ def sweeps_from_tree(
     margin: float,
 ) -> list[TruthSweep]:
     """:func:`read_radar_sweeps` on a file already opened (:func:`open_radar_file`)."""
-    described = sweep_modes(tree)
+    described = sweep_modes(tree, f"{path} ({kind})")
     ppi = [d for d in described if "rhi" not in d[2].lower()]
     if not ppi:
         raise ValueError(
@@ -257,8 +311,67 @@ def sweeps_from_tree(
                 f"{path}: no sweep within {_MAX_ELEVATION_MISMATCH_DEG} deg of elevation "
                 f"{elevation_deg} deg; available fixed angles (deg): {angles}"
             )
-        out.append(_truth_sweep(tree, kind, path, best, sector, margin))
+        with damaged(f"{path} ({kind}), {best[0]}"):
+            out.append(_truth_sweep(tree, kind, path, best, sector, margin))
     return out
+
+
+def sweep_axes(
+    ds: Any, where: str, *, need_elevation: bool = False
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    """A sweep's azimuth and elevation (deg, per ray; elevation ``None`` where the file has
+    none and it is not needed) and range (m, per gate), checked: a sweep without its range
+    (xradar then numbers the gates 0, 1, 2, ... as if they were metres), or with an angle no
+    antenna points at, or a NaN, is refused naming ``where`` (the file and the sweep) and
+    the variable, never wrapped or guessed."""
+    names = ("azimuth", "range") + (("elevation",) if need_elevation else ())
+    missing = [n for n in names if n not in ds.variables]
+    if missing:
+        raise ValueError(
+            f"{where}: no `{missing[0]}` variable (the "
+            + {"azimuth": "azimuth of each ray", "range": "distance of each gate"}.get(
+                missing[0], "elevation of each ray"
+            )
+            + "); refused rather than numbered 0, 1, 2, ..."
+        )
+    azimuth = np.asarray(ds["azimuth"].values, np.float64).ravel()
+    range_m = np.asarray(ds["range"].values, np.float64).ravel()
+    elevation = (
+        np.asarray(ds["elevation"].values, np.float64).ravel()
+        if "elevation" in ds.variables
+        else None
+    )
+    if azimuth.size == 0 or range_m.size == 0:
+        raise ValueError(
+            f"{where}: holds {azimuth.size} rays of {range_m.size} gates (the file is empty "
+            "or truncated there)"
+        )
+    _check_angles(where, "azimuth", azimuth, -360.0, 360.0, "ray")
+    if elevation is not None:
+        _check_angles(where, "elevation", elevation, -90.0, 90.0, "ray")
+    _check_angles(where, "range", range_m, 0.0, np.inf, "gate")
+    step = np.diff(range_m)
+    if np.any(step <= 0):
+        k = int(np.flatnonzero(step <= 0)[0]) + 1
+        raise ValueError(
+            f"{where}: `range` does not increase ({range_m[k]:g} m after "
+            f"{range_m[k - 1]:g} m at gate {k})"
+        )
+    return azimuth, elevation, range_m
+
+
+def _check_angles(
+    where: str, name: str, values: np.ndarray, low: float, high: float, item: str
+) -> None:
+    bad = ~(np.isfinite(values) & (values >= low) & (values <= high))
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        unit = "m" if name == "range" else "deg"
+        bounds = f"[{low:g}, {high:g}]" if np.isfinite(high) else f"finite and >= {low:g}"
+        raise ValueError(
+            f"{where}: `{name}` holds {values[k]:g} {unit}, not {bounds} (at "
+            f"{int(bad.sum())} of its {values.size} {item}s)"
+        )
 
 
 def _truth_sweep(
@@ -278,8 +391,8 @@ def _truth_sweep(
             f"{path} ({kind}): the {best[1]:.2f} deg sweep has no reflectivity field "
             f"(its fields: {', '.join(names) or 'none'})"
         )
-    azimuth = wrap360(np.asarray(ds["azimuth"].values, np.float64))
-    range_m = np.asarray(ds["range"].values, np.float64)
+    raw_azimuth, elevation, range_m = sweep_axes(ds, f"{path} ({kind}), {best[0]}")
+    azimuth = wrap360(raw_azimuth)
     width = nominal_spacing(azimuth)
     keep = drop_duplicate_radials(azimuth, width)
     order = keep[sector_order(azimuth[keep], sector, margin)]
@@ -289,9 +402,7 @@ def _truth_sweep(
     site, nyquist = file_site(tree, ds, path), file_nyquist(ds)
     return TruthSweep(
         azimuth_deg=azimuth[order],
-        elevation_deg=float(np.nanmean(ds["elevation"].values))
-        if "elevation" in ds.coords
-        else best[1],
+        elevation_deg=float(np.mean(elevation)) if elevation is not None else best[1],
         range_m=range_m,
         radial_width_deg=float(width),
         gate_width_m=gate_width(range_m),
@@ -306,15 +417,34 @@ def file_site(tree: Any, sweep: Any, path: Path) -> dict[str, Any]:
     """The radar's position, name and start time as a radar file records them (0 and '' where
     it does not)."""
     root = tree.to_dataset()
+    start = text_value(root["time_coverage_start"].values) if "time_coverage_start" in root else ""
+    if start:
+        try:
+            np.datetime64(start.rstrip("Z"), "ns")
+        except ValueError:
+            raise ValueError(
+                f"{path}: `time_coverage_start` is {start[:40]!r}, not an ISO 8601 time"
+            ) from None
     return {
         "latitude": _scalar(root, "latitude", sweep),
         "longitude": _scalar(root, "longitude", sweep),
         "altitude": _scalar(root, "altitude", sweep),
         "instrument_name": str(tree.attrs.get("instrument_name", path.stem)).strip(),
-        "time_coverage_start": str(np.asarray(root["time_coverage_start"]).item())
-        if "time_coverage_start" in root
-        else "",
+        "time_coverage_start": start,
     }
+
+
+def text_value(value: Any) -> str:
+    """A text variable as text: a str, bytes (xradar's reading of a netCDF character array,
+    as Radx writes times), or an array of characters or bytes (joined); NUL padding and
+    spaces stripped."""
+    array = np.asarray(value)
+    if array.dtype.kind in "SU" and array.ndim:
+        items = array.ravel().tolist()
+    else:
+        items = [array.item() if array.size == 1 else value]
+    parts = [i.decode("utf-8", "replace") if isinstance(i, bytes) else str(i) for i in items]
+    return "".join(parts).replace("\x00", "").strip()
 
 
 def file_nyquist(sweep: Any) -> float:
@@ -361,6 +491,7 @@ def is_level2(path: str | Path) -> bool:
 
 __all__ = [
     "ALIASES",
+    "damaged",
     "file_nyquist",
     "file_site",
     "is_level2",
@@ -369,4 +500,5 @@ __all__ = [
     "read_radar_sweeps",
     "sweep_modes",
     "sweeps_from_tree",
+    "text_value",
 ]

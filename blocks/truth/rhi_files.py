@@ -18,12 +18,13 @@ import numpy as np
 
 from .gridding import clean_fields, gate_width, wrap360
 from .nexrad_io import TruthSweep
-from .radar_files import field_map, file_nyquist, file_site, sweep_modes
+from .radar_files import damaged, field_map, file_nyquist, file_site, sweep_axes, sweep_modes
 
 
-def only_rhis(tree: Any) -> bool:
-    """True when every sweep of the opened radar file is an RHI."""
-    modes = sweep_modes(tree)
+def only_rhis(tree: Any, where: str = "radar file") -> bool:
+    """True when every sweep of the opened radar file (``where``, named in a refusal) is an
+    RHI."""
+    modes = sweep_modes(tree, where)
     return bool(modes) and all("rhi" in m.lower() for _, _, m in modes)
 
 
@@ -32,9 +33,18 @@ def rhi_sweeps(
 ) -> list[TruthSweep]:
     """Constant-elevation sweeps made of an RHI file's rays; ``choose`` is given the grid's
     elevations and returns those to keep (each the nearest grid elevation)."""
+    with damaged(f"{path} ({kind}), its RHIs", str(path)):
+        return _rhi_sweeps(tree, kind, path, choose)
+
+
+def _rhi_sweeps(
+    tree: Any, kind: str, path: Path, choose: Callable[[list[float]], list[float]]
+) -> list[TruthSweep]:
     rhis = []
-    for name, angle, _ in sweep_modes(tree):
+    for name, angle, _ in sweep_modes(tree, f"{path} ({kind})"):
         ds = tree[name].to_dataset()
+        _, elevation, range_m = sweep_axes(ds, f"{path} ({kind}), {name}", need_elevation=True)
+        assert elevation is not None
         names = [str(n) for n in ds.data_vars if ds[n].ndim == 2]
         mapping = field_map(names, {n: str(ds[n].attrs.get("standard_name", "")) for n in names})
         if "DBZH" not in mapping:
@@ -42,13 +52,12 @@ def rhi_sweeps(
                 f"{path} ({kind}): the RHI at azimuth {angle:g} deg has no reflectivity field "
                 f"(its fields: {', '.join(names) or 'none'})"
             )
-        elevation = np.asarray(ds["elevation"].values, np.float64)
         order = np.argsort(elevation, kind="stable")
         rhis.append(
             (
                 float(wrap360(np.array([angle]))[0]),
                 elevation[order],
-                np.asarray(ds["range"].values, np.float64),
+                range_m,
                 {m: np.asarray(ds[v].values, np.float32)[order] for m, v in mapping.items()},
                 ds,
             )
