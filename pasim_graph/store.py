@@ -30,6 +30,7 @@ from .store_check import (
     check_arrays,
     check_chunks,
     some,
+    symbolic_links,
 )
 from .store_lock import LOCK, StoreError, StoreLock, current_writer, describe_holder
 from .stored_values import writes_raw
@@ -113,6 +114,12 @@ def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str)
             crashed = " (a run that stopped early left it)" if lock.previous else ""
             raise StoreExistsError(
                 f"{path} exists{crashed}; pass --resume to complete it or --overwrite to replace it"
+            )
+        links = symbolic_links(path) if existing and resume else []
+        if links:
+            raise StoreError(
+                f"{path} holds symbolic links ({some(links)}); --resume would write through "
+                "them, outside the store: remove them, or choose another --out"
             )
         if existing and overwrite:
             foreign = foreign_entries(path)

@@ -1,9 +1,10 @@
-"""Finding damage in a written store: every array its layout lists present, and every chunk of
-every array read under its checksum."""
+"""Finding damage in a written store: every array its layout lists present, every chunk of
+every array read under its checksum, and no symbolic link planted in it."""
 
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -97,6 +98,19 @@ def some(names: list[str], at_most: int = 5) -> str:
     """The first ``at_most`` of ``names``, and how many more there are."""
     more = f" and {len(names) - at_most} more" if len(names) > at_most else ""
     return ", ".join(names[:at_most]) + more
+
+
+def symbolic_links(path: str | Path) -> list[str]:
+    """Every symbolic link inside a store, by path (sorted): none of them is ours, and
+    writing through one writes outside the store."""
+    root = Path(path)
+    out = []
+    for dirpath, dirnames, filenames in os.walk(root):  # links to folders are not entered
+        for name in dirnames + filenames:
+            entry = Path(dirpath, name)
+            if entry.is_symlink():
+                out.append(entry.relative_to(root).as_posix())
+    return sorted(out)
 
 
 @dataclass(frozen=True)

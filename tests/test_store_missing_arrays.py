@@ -5,7 +5,8 @@ The layout a run writes first lists every array of the store (the root attribute
 and ``pasim compare`` refuse a store that lacks one, naming it in one line with exit 2;
 ``--resume`` lays it out again and computes its chunks again, after which the store equals
 the original file for file. A store written before the list (none in its root) is checked
-against the arrays its consolidated metadata names.
+against the arrays its consolidated metadata names. And ``--resume`` refuses a symbolic link
+planted in a store instead of writing through it, outside the store.
 """
 
 from __future__ import annotations
@@ -143,3 +144,20 @@ def test_a_store_written_before_the_list_is_checked_against_its_consolidated_met
         xr.open_datatree(store, engine="zarr")["sweep_0"]["error_ZDR"].values,
         xr.open_datatree(original, engine="zarr")["sweep_0"]["error_ZDR"].values,
     )
+
+
+def test_resume_refuses_a_link_planted_in_the_store(original, tmp_path, capsys):
+    """A link in place of a chunk folder: --resume would rewrite the damaged chunk through it,
+    replacing a file outside the store; it is refused, naming the link, and nothing moves."""
+    store = copy_without(original, tmp_path)
+    theirs = tmp_path / "theirs"
+    theirs.mkdir()
+    (theirs / "0").write_text("precious")
+    shutil.rmtree(store / "sweep_0" / "DBZH" / "c" / "1")
+    (store / "sweep_0" / "DBZH" / "c" / "1").symlink_to(theirs, target_is_directory=True)
+    code, err = pasim(capsys, *RUN, "--out", str(store), "--resume")
+    assert code == 2, err
+    assert "symbolic link" in err and "sweep_0/DBZH/c/1" in err, err
+    assert "Traceback" not in err and len(err.strip().splitlines()) <= 2, err
+    assert (theirs / "0").read_text() == "precious"
+    assert sorted(p.name for p in theirs.iterdir()) == ["0"]
