@@ -47,6 +47,7 @@ from .run_checks import check_resources, chunks_at_once, damaged_chunks, disk_fu
 from .scores import TIME_ON_TARGET, time_on_target
 from .store import (
     COMPLETE,
+    DONE,
     StoreLock,
     beam_dimension,
     clear_store,
@@ -60,8 +61,11 @@ from .store import (
     replace_store,
     run_state,
     split_volume,
+    sweep_template,
     write_region,
 )
+from .store_check import missing_arrays, some
+from .store_relay import RelayError, relay_missing
 from .sweeps import sweep_executors, sweep_group
 
 __all__ = ["ResourceError", "ResumeError"]  # re-exported: the command line catches them here
@@ -254,13 +258,21 @@ class DaskExecutor:
         # --overwrite: the old store is laid out afresh, but emptied only once this run has
         # read its inputs and passed its checks (lock.replace below).
         state = None if lock.replacing else run_state(path)
+        missing: list[str] = []  # arrays the layout lists that are gone: laid out again
+        if state is not None and not lock.replacing:
+            if state[0].get("pasim_run_key") != key:
+                raise ResumeError(resume_mismatch(path, state[0], inputs))
+            missing = missing_arrays(path)
+            if DONE in missing:
+                # Which chunks were done is lost (a finished store's consolidated metadata
+                # still names the flags): every chunk is run again, on a fresh layout.
+                log(f"{path}: {DONE} is missing (the layout lists it); running every chunk")
+                state, missing = None, []
         if lock.replacing:
             pass
         elif state is None:
             # A new store, or one killed while its template was written: start afresh.
             clear_store(path)
-        elif state[0].get("pasim_run_key") != key:
-            raise ResumeError(resume_mismatch(path, state[0], inputs))
         else:
             done = state[1].astype(bool)
             # In a finished store every chunk counts (a damaged done flag reads as not done);
@@ -271,6 +283,12 @@ class DaskExecutor:
                 first, count = offsets.get(sweep_group(k), (i, 0))
                 offsets[sweep_group(k)] = (first, count + 1)
             repair = [i for i in damaged_chunks(path, offsets) if complete or done[i]]
+            if missing:
+                log(
+                    f"writing again {len(missing)} missing array(s) of {path} (the layout "
+                    f"lists them): {some(missing, 6)}"
+                )
+                mark_incomplete(path)
             if repair:
                 log(
                     f"rewriting {len(repair)} damaged chunk(s) of {path}: "
@@ -278,7 +296,7 @@ class DaskExecutor:
                 )
                 done[repair] = False
                 mark_incomplete(path)
-            elif state[0].get(COMPLETE) == "true":
+            elif complete and not missing:
                 log(f"{path} is already complete")
                 return RunReport(len(starts), 0, n_beams, sweeps=len(self.sweeps))
         attrs = {
@@ -300,6 +318,9 @@ class DaskExecutor:
             static = self.local.run_static()
             if state is None:
                 on_target = self._lay_out(path, lock, static, attrs, len(starts))
+            elif missing:
+                redo = self._lay_out_again(path, static, attrs, missing)
+                done[[i for i, (k, _) in enumerate(starts) if sweep_group(k) in redo]] = False
             todo = [i for i in range(len(starts)) if not done[i]]
             # Blocks that run once have done their I/O; workers need only per-chunk blocks.
             for sweep in self.sweeps:
@@ -333,6 +354,41 @@ class DaskExecutor:
     ) -> float:
         """Run each sweep's first beam, check the run fits, then write every sweep's layout
         and the root last. Returns the volume's time on target (s)."""
+        layouts, probes, root = self._layouts(static, attrs)
+        self._disk_estimate = check_resources(
+            path,
+            probes,
+            lock,
+            chunk_beams=self.options.chunk_beams,
+            at_most=chunks_at_once(self.workers, self.scheduler, LOCAL_SCHEDULERS),
+        )
+        replace_store(lock)
+        for k, (sweep, coords, n) in enumerate(layouts):
+            chunk = min(self.options.chunk_beams, n)
+            create_sweep(path, sweep_group(k), sweep, coords, n, chunk)
+        create_root(path, root, n_chunks)
+        return float(root.attrs[TIME_ON_TARGET])
+
+    def _lay_out_again(
+        self, path: Path, static: dict, attrs: dict[str, Any], missing: list[str]
+    ) -> set[str]:
+        """Write again the ``missing`` arrays of the layout; returns the sweep groups whose
+        chunks must be computed again (a missing array of theirs holds beams)."""
+        layouts, _, root = self._layouts(static, attrs)
+        templates = {
+            sweep_group(k): sweep_template(sweep, coords, n, min(self.options.chunk_beams, n))
+            for k, (sweep, coords, n) in enumerate(layouts)
+        }
+        try:
+            return relay_missing(path, templates, root, missing)
+        except RelayError as exc:
+            raise ResumeError(str(exc)) from None
+
+    def _layouts(
+        self, static: dict, attrs: dict[str, Any]
+    ) -> tuple[list[tuple[xr.Dataset, dict[str, Any], int]], list[tuple[Probe, int]], xr.Dataset]:
+        """Each sweep's layout (its first beam's dataset, its beam coordinates, its number of
+        beams), the probes of the first beams, and the root, from one beam per sweep."""
         # One beam per sweep fixes the store's layout; every chunk then runs in parallel. It
         # is also the probe that says whether the whole run fits.
         layouts, probes, times, roots = [], [], [], []
@@ -349,25 +405,14 @@ class DaskExecutor:
             probes.append((probe, n))
             layouts.append((sweep, self._all_beam_coords(geometry, sweep), n))
             roots.append(root)
-        self._disk_estimate = check_resources(
-            path,
-            probes,
-            lock,
-            chunk_beams=self.options.chunk_beams,
-            at_most=chunks_at_once(self.workers, self.scheduler, LOCAL_SCHEDULERS),
-        )
-        replace_store(lock)
-        for k, (sweep, coords, n) in enumerate(layouts):
+        for k, (sweep, _, _) in enumerate(layouts):
             if len(layouts) > 1 and "sweep_number" in sweep:
                 sweep["sweep_number"] = ((), k)
-            chunk = min(self.options.chunk_beams, n)
-            create_sweep(path, sweep_group(k), sweep, coords, n, chunk)
         root = roots[0]
         if "time_coverage_end" in roots[-1]:  # the volume ends with its last sweep
             root["time_coverage_end"] = roots[-1]["time_coverage_end"]
         root.attrs[TIME_ON_TARGET] = float(sum(times))
-        create_root(path, root, n_chunks)
-        return float(sum(times))
+        return layouts, probes, root
 
     def _chunk_text(self, start: tuple[int, np.ndarray]) -> str:
         k, beams = start

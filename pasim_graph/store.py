@@ -23,7 +23,15 @@ import xarray as xr
 from .ports import BEAM_DIM
 from .scores import summarize as summarize  # re-exported: callers score a sweep from here
 from .scores import sweep_names
-from .store_check import DamagedStoreError, NotAStoreError, check_chunks
+from .store_check import (
+    DamagedStoreError,
+    NotAStoreError,
+    array_list,
+    check_arrays,
+    check_chunks,
+    some,
+    symbolic_links,
+)
 from .store_lock import LOCK, StoreError, StoreLock, current_writer, describe_holder
 from .stored_values import writes_raw
 
@@ -91,8 +99,6 @@ def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str)
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise StoreError(f"cannot create {path}: {exc.strerror or exc}") from None
-    import os
-
     if not os.access(path, os.W_OK | os.X_OK):
         readonly = bool(os.statvfs(path).f_flag & os.ST_RDONLY)
         why = "the file system is read-only" if readonly else "permission denied"
@@ -109,15 +115,19 @@ def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str)
             raise StoreExistsError(
                 f"{path} exists{crashed}; pass --resume to complete it or --overwrite to replace it"
             )
+        links = symbolic_links(path) if existing and resume else []
+        if links:
+            raise StoreError(
+                f"{path} holds symbolic links ({some(links)}); --resume would write through "
+                "them, outside the store: remove them, or choose another --out"
+            )
         if existing and overwrite:
             foreign = foreign_entries(path)
             if foreign:
-                shown = ", ".join(foreign[:5]) + (
-                    f" and {len(foreign) - 5} more" if len(foreign) > 5 else ""
-                )
                 raise StoreError(
-                    f"{path} holds files this program did not write ({shown}); --overwrite "
-                    "would delete them: move them out of the store, or choose another --out"
+                    f"{path} holds files this program did not write ({some(foreign)}); "
+                    "--overwrite would delete them: move them out of the store, or choose "
+                    "another --out"
                 )
             if run_state(path) is None:
                 clear_store(path)  # nothing of a finished run to keep (a template cut short)
@@ -332,6 +342,25 @@ def create_sweep(
     (``n_beams``), chunked by ``chunk_beams`` so that chunks write disjoint Zarr chunks.
     ``beam_coords`` are the coordinates along the beams for every beam.
     """
+    ds = sweep_template(sweep, beam_coords, n_beams, chunk_beams)
+    with _quiet():
+        # mode "a", never "w": zarr's "w" empties the whole directory, marker and lock included.
+        ds.to_zarr(
+            path,
+            group=group,
+            mode="a",
+            consolidated=False,
+            compute=False,
+            encoding={n: encoding(v.dtype) for n, v in ds.variables.items()},
+            write_empty_chunks=True,
+        )
+
+
+def sweep_template(
+    sweep: xr.Dataset, beam_coords: dict[str, xr.Variable], n_beams: int, chunk_beams: int
+) -> xr.Dataset:
+    """A sweep's layout (:func:`create_sweep`): its beam-dimension variables as lazy arrays of
+    ``n_beams``, chunked by ``chunk_beams``, the rest as ``sweep`` holds them."""
     import dask.array as da
 
     beam_dim = beam_dimension(sweep)
@@ -346,18 +375,7 @@ def create_sweep(
         else:
             template[name] = var.variable
     coords = {n: c.variable for n, c in sweep.coords.items() if beam_dim not in c.dims}
-    ds = xr.Dataset(template, coords={**coords, **beam_coords}, attrs=sweep.attrs)
-    with _quiet():
-        # mode "a", never "w": zarr's "w" empties the whole directory, marker and lock included.
-        ds.to_zarr(
-            path,
-            group=group,
-            mode="a",
-            consolidated=False,
-            compute=False,
-            encoding={n: encoding(v.dtype) for n, v in ds.variables.items()},
-            write_empty_chunks=True,
-        )
+    return xr.Dataset(template, coords={**coords, **beam_coords}, attrs=sweep.attrs)
 
 
 def create_root(path: str | Path, root: xr.Dataset, n_chunks: int) -> None:
@@ -382,8 +400,10 @@ def create_root(path: str | Path, root: xr.Dataset, n_chunks: int) -> None:
             write_empty_chunks=True,
         )
         # The done flags are the very last thing of the layout: their array existing is what
-        # says the template is whole (run_state).
-        xr.Dataset({DONE: root[DONE]}, attrs=root.attrs).to_zarr(
+        # says the template is whole (run_state). The root's attributes, written first, list
+        # every array of the layout (ARRAYS), the flags included.
+        attrs = {**root.attrs, **array_list(path, DONE)}
+        xr.Dataset({DONE: root[DONE]}, attrs=attrs).to_zarr(
             path,
             mode="a",
             consolidated=False,
@@ -524,11 +544,14 @@ def open_finished(path: str | Path) -> xr.DataTree:
     """A finished run's whole volume, checked.
 
     Raises :class:`NotAStoreError` naming the path when it is missing, not a store, or a run
-    that did not finish, and :class:`DamagedStoreError` (a kind of it) naming each damaged
-    array and chunk when its files were damaged after they were written.
+    that did not finish, :class:`MissingArraysError` naming the arrays its layout lists that
+    are gone, and :class:`DamagedStoreError` naming each damaged array and chunk when its
+    files were damaged after they were written (both kinds of it).
     """
     if not Path(path).exists():
         raise NotAStoreError(f"{path}: no such store")
+    if is_store(path):
+        check_arrays(path)
     state = run_state(path) if is_store(path) else None
     if state is not None and state[0].get(COMPLETE) == "true":
         damage = check_chunks(path)

@@ -1,14 +1,116 @@
-"""Finding damage in a written store: every chunk of every array read under its checksum."""
+"""Finding damage in a written store: every array its layout lists present, every chunk of
+every array read under its checksum, and no symbolic link planted in it."""
 
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
 
 class NotAStoreError(ValueError):
     """The path is not a finished PASIM-graph run."""
+
+
+#: The root attribute that lists every array of a store's layout (JSON: their paths in the
+#: store, sorted), written with the layout, so that an array removed whole is named instead of
+#: read as NaN (its chunks are checked only while its metadata is there).
+ARRAYS = "pasim_arrays"
+
+
+def arrays_on_disk(path: str | Path) -> list[str]:
+    """The arrays a store holds: the nodes whose ``zarr.json`` says so, by path (sorted)."""
+    root = Path(path)
+    out = []
+    for meta_path in root.rglob("zarr.json"):
+        try:
+            meta = json.loads(meta_path.read_text())
+        except (OSError, ValueError):
+            continue
+        if isinstance(meta, dict) and meta.get("node_type") == "array":
+            out.append(meta_path.parent.relative_to(root).as_posix())
+    return sorted(out)
+
+
+def array_list(path: str | Path, *also: str) -> dict[str, str]:
+    """The root attribute that lists a layout's arrays: those in the store at ``path`` and
+    ``also`` (written after it)."""
+    return {ARRAYS: json.dumps(sorted({*arrays_on_disk(path), *also}))}
+
+
+def listed_arrays(path: str | Path) -> list[str] | None:
+    """The arrays a store's layout wrote: its list (:data:`ARRAYS`), or for a store written
+    before the list existed, the arrays its consolidated metadata names (a finished run's).
+    None when neither says (an old store that never finished) or the list is unreadable
+    (:func:`check_chunks` names that)."""
+    try:
+        meta = json.loads((Path(path) / "zarr.json").read_text())
+        attrs = meta.get("attributes") or {}
+    except (OSError, ValueError, AttributeError):
+        return None
+    if ARRAYS in attrs:
+        return _array_list(attrs[ARRAYS])
+    consolidated = (meta.get("consolidated_metadata") or {}).get("metadata") or {}
+    names = [n for n, m in consolidated.items() if (m or {}).get("node_type") == "array"]
+    return sorted(names) or None
+
+
+def _array_list(value: object) -> list[str] | None:
+    try:
+        names = json.loads(value) if isinstance(value, str) else None
+    except ValueError:
+        return None
+    if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+        return None
+    return names
+
+
+def missing_arrays(path: str | Path) -> list[str]:
+    """The arrays a store's layout lists that are not in it (their metadata is gone)."""
+    root = Path(path)
+    return [n for n in listed_arrays(root) or [] if not (root / n / "zarr.json").is_file()]
+
+
+def check_arrays(path: str | Path) -> None:
+    """Raise :class:`MissingArraysError` naming the arrays a store's layout lists that are
+    not in it."""
+    missing = missing_arrays(path)
+    if missing:
+        raise MissingArraysError(path, missing)
+
+
+class MissingArraysError(NotAStoreError):
+    """A store that lacks arrays its layout lists (removed after the run wrote them)."""
+
+    def __init__(self, path: str | Path, names: list[str]):
+        self.path, self.names = Path(path), names
+        one = len(names) == 1
+        it = "it" if one else "them"
+        super().__init__(
+            f"{path}: {some(names, 6)} {'is' if one else 'are'} missing (the layout lists {it}); "
+            f"write {it} again with the run's own command and --resume (graph, seed and "
+            "options as stored), or run it again with --overwrite"
+        )
+
+
+def some(names: list[str], at_most: int = 5) -> str:
+    """The first ``at_most`` of ``names``, and how many more there are."""
+    more = f" and {len(names) - at_most} more" if len(names) > at_most else ""
+    return ", ".join(names[:at_most]) + more
+
+
+def symbolic_links(path: str | Path) -> list[str]:
+    """Every symbolic link inside a store, by path (sorted): none of them is ours, and
+    writing through one writes outside the store."""
+    root = Path(path)
+    out = []
+    for dirpath, dirnames, filenames in os.walk(root):  # links to folders are not entered
+        for name in dirnames + filenames:
+            entry = Path(dirpath, name)
+            if entry.is_symlink():
+                out.append(entry.relative_to(root).as_posix())
+    return sorted(out)
 
 
 @dataclass(frozen=True)
@@ -51,6 +153,9 @@ def check_chunks(path: str | Path) -> list[Damage]:
             out.append(Damage(node or ".", None, f"unreadable: {_short(exc)}"))
             continue
         if meta["node_type"] != "array":
+            if not node and ARRAYS in (meta.get("attributes") or {}):
+                if _array_list(meta["attributes"][ARRAYS]) is None:
+                    out.append(Damage(".", None, f"unreadable: its {ARRAYS} list"))
             continue
         try:
             arr = zarr.open_array(str(root), path=node, mode="r")

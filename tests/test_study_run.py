@@ -197,6 +197,21 @@ def test_kill_9_mid_study_then_resume(tmp_path, study):
     assert json.loads((out / "scores.json").read_text()) == scores(study)
 
 
+def test_resume_writes_again_an_array_removed_from_a_run(tmp_path, study):
+    """A finished run's store that lost sweep_0/error_ZDR is not kept as finished (its ZDR
+    would score as NaN): --resume writes the array again and the scores are the study's."""
+    import shutil
+
+    out = tmp_path / "out"
+    shutil.copytree(study, out)
+    run = next((out / "runs").rglob("estimate-seed0.zarr"))
+    shutil.rmtree(run / "sweep_0" / "error_ZDR")
+    assert main(["study", str(STUDY), "--out", str(out), "--resume"]) == 0
+    assert scores(out) == scores(study)
+    original = study / run.relative_to(out)
+    np.testing.assert_array_equal(_errors(run, "ZDR")[0], _errors(original, "ZDR")[0])
+
+
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=str)
 def test_a_signalled_study_ends_with_one_line_and_resumes(tmp_path, study, sig):
     """SIGINT / SIGTERM: exit 130 / 143, one line saying how to go on, no traceback, no lock

@@ -1,7 +1,8 @@
 """A run of a scan with several sweeps: one FM-301 store with sweep_0 ... sweep_N, each with its
 own PRT and pulses (its I/Q cube its own shape), time on target stored and reported, scores per
 sweep and pooled (checked against a pooling worked out here), the same numbers whatever the
-chunking, and resume repairing a damaged chunk of a later sweep."""
+chunking, and resume repairing a damaged chunk, or an array removed whole, of a later
+sweep."""
 
 from __future__ import annotations
 
@@ -181,6 +182,25 @@ def test_resume_rewrites_a_damaged_chunk_of_a_later_sweep(volume, tmp_path, caps
     # A finished store is left as it is.
     code, _, err = pasim_out(capsys, *ARGS, "--chunk", "4", "--out", str(copy), "--resume")
     assert code == 0 and "already complete" in err
+
+
+def test_resume_writes_again_an_array_removed_from_a_later_sweep(volume, tmp_path, capsys):
+    """sweep_2/DBZH removed whole: named by pasim score; --resume lays it out again and runs
+    that sweep's one chunk only, and the volume equals the original."""
+    copy = tmp_path / "store"
+    shutil.copytree(volume[0], copy)
+    shutil.rmtree(copy / "sweep_2" / "DBZH")
+    code, _, err = pasim_out(capsys, "score", str(copy))
+    assert code == 2 and "sweep_2/DBZH is missing (the layout lists it)" in err, err
+    code, _, err = pasim_out(capsys, *ARGS, "--chunk", "4", "--out", str(copy), "--resume")
+    assert code == 0, err
+    assert "sweep_2/DBZH" in err and "1 of 5 chunks" in err, err
+    a, b = _open(copy), _open(volume[0])
+    for name in sweep_names(b):
+        for var in b[name].to_dataset().variables:
+            np.testing.assert_array_equal(
+                a[name][var].values, b[name][var].values, err_msg=f"{name}/{var}"
+            )
 
 
 def test_the_vcp212_example_declares_every_cut():

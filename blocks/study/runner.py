@@ -86,12 +86,15 @@ def save(out: Path, state: dict[str, Any]) -> None:
 
 
 def finished(path: Path) -> bool:
+    """A run's store holds every chunk and every array its layout lists (one that lost an
+    array is run again with --resume, which writes the array again)."""
     from pasim_graph.store import is_store, run_state
+    from pasim_graph.store_check import missing_arrays
 
     if not path.exists() or not is_store(path):
         return False
     state = run_state(path)
-    return state is not None and bool(state[1].all())
+    return state is not None and bool(state[1].all()) and not missing_arrays(path)
 
 
 def measure_beamwidth(run: Run, estimate: Run, sector: tuple[float, float], el: float) -> float:
