@@ -67,6 +67,7 @@ class StudyCommand:
         from pasim_graph.interrupt import StopMessage, Stopped, stop_on_signals
         from pasim_graph.store import StoreError, StoreExistsError
 
+        from ..study.integrity import study_inputs
         from ..study.model import read_study
         from ..study.plan import plan_runs
         from ..study.runner import StudyError, execute, take_folder
@@ -98,7 +99,7 @@ class StudyCommand:
                 raise UserError(str(exc)) from None
         out = Path(args.out)
         try:
-            state = take_folder(out, study, args.resume)
+            state = take_folder(out, study, args.resume, study_inputs(study, runs))
         except StudyError as exc:
             raise UserError(str(exc)) from None
 
@@ -129,6 +130,8 @@ class StudyCommand:
             ) from None
         except BlockError as exc:
             raise UserError(f"{args.study}: {exc}") from None
+        except StudyError as exc:
+            raise UserError(str(exc)) from None
         except (StoreError, StoreExistsError, ResumeError, ResourceError, SchedulerError) as exc:
             raise UserError(str(exc)) from None
         rescore()

@@ -29,6 +29,7 @@ from typing import Any
 
 from pasim_graph.graph import Graph, GraphError, resolve
 from pasim_graph.graphfile import BlockSpec, GraphSpec, Problem, read
+from pasim_graph.resume_key import input_paths
 
 from .model import Case, Study, System, point_name
 
@@ -50,6 +51,7 @@ class Run:
     overrides: dict[str, Any]
     antennas: list[str] = field(default_factory=list)  # ideal antennas to give a beamwidth
     source_antenna: str = ""  # the system's antenna whose beamwidth they take
+    inputs: dict[str, str] = field(default_factory=dict)  # files it reads: {BLOCK.PARAM: path}
 
     @property
     def point_name(self) -> str:
@@ -128,6 +130,46 @@ def case_overrides(graph: Graph, case: Case) -> tuple[dict[str, Any], list[str]]
     return out, problems
 
 
+def _case_key(case: Case, key: str) -> str:
+    """The case's own setting behind one of its overrides (``key``, BLOCK.PARAM)."""
+    param = key.partition(".")[2]
+    if param.startswith("azimuth_"):
+        return f"sector {case.sector[0]:g}:{case.sector[1]:g}"
+    if param == "elevation_deg":
+        return f"elevation {case.elevation:g}"
+    if param == "path":
+        return f"truth {case.truth or '(the bundled scene)'}"
+    if param == "elevation_interpolation":
+        return f"interpolation {case.interpolation}"
+    return f"{param} {case.sweeps}"
+
+
+def collisions(study: Study, system: System, case: Case, on_case: dict[str, Any]) -> list[Problem]:
+    """A system's ``set:`` or sweep of a parameter that the case sets itself (the scan's
+    sector and elevation, the truth's file, cut and sweeps): refused, never silently
+    overridden by the case. A study varies these by its cases, one case per setting."""
+    sweep = next((s for s in study.sweeps if system.name in s.systems), None)
+    out = []
+    for key in on_case:
+        given = []
+        if key in system.overrides:
+            given.append((system.override_lines.get(key, system.line), f"set {key}"))
+        if sweep is not None and key in sweep.values:
+            given.append((sweep.value_lines.get(key, sweep.line), f"sweep {key}"))
+        for line, what in given:
+            out.append(
+                Problem(
+                    study.file,
+                    line,
+                    "",
+                    f"system '{system.name}', {what}",
+                    f"collides with case '{case.name}' ({_case_key(case, key)}), which sets "
+                    f"{key} itself; vary it with one case per value instead",
+                )
+            )
+    return out
+
+
 def _method_overrides(graph: Graph) -> dict[str, Any]:
     out = {}
     for name, cls in graph.classes.items():
@@ -198,8 +240,8 @@ def plan_runs(study: Study) -> tuple[list[Run], list[Problem]]:
                 )
             continue
         for case in study.cases:
-            for point in study.points(system.name):
-                runs += _system_runs(study, system, spec, case, point, problems)
+            for i, point in enumerate(study.points(system.name)):
+                runs += _system_runs(study, system, spec, case, point, problems, first=i == 0)
     problems += _truth_problems(study)
     return runs, problems
 
@@ -226,6 +268,8 @@ def _system_runs(
     case: Case,
     point: dict[str, Any],
     problems: list[Problem],
+    *,
+    first: bool = True,
 ) -> list[Run]:
     overrides = {**system.overrides, **point}
     try:
@@ -236,6 +280,8 @@ def _system_runs(
     on_case, trouble = case_overrides(graph, case)
     where = f"system '{system.name}', case '{case.name}'"
     problems += [Problem(study.file, case.line, "", where, t) for t in trouble]
+    if first:  # the same keys at every point: named once
+        problems += collisions(study, system, case, on_case)
     overrides |= on_case
     reference = overrides | _method_overrides(graph) | _floors(graph)
     if not _method_overrides(graph):
@@ -265,7 +311,7 @@ def _system_runs(
         )
     for run in runs:
         try:
-            run.graph()
+            run.inputs = input_paths(run.graph())
         except GraphError as exc:
             problems += [
                 Problem(study.file, case.line, "", f"{where}, {run.kind} run", str(p))
