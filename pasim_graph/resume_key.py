@@ -16,34 +16,45 @@ class ResumeError(RuntimeError):
     """The store cannot be resumed by this run (another graph, seed or chunking)."""
 
 
+def input_paths(graph: Graph) -> dict[str, str]:
+    """The files a graph reads: every set ``path`` parameter, as ``{BLOCK.PARAM: path}``."""
+    out = {}
+    for block, cls in sorted(graph.classes.items()):
+        for name, param in cls.params.items():
+            value = graph.value(block, name)
+            if param.type == "path" and value:
+                out[f"{block}.{name}"] = str(value)
+    return out
+
+
+def file_digest(path: str | Path) -> str | None:
+    """The SHA-256 of a file's content (a Zarr store: each of its files, by its path inside
+    the store); None where it cannot be read."""
+    path = Path(path)
+    digest = hashlib.sha256()
+    try:
+        files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+        for file in files:
+            if file != path:
+                digest.update(str(file.relative_to(path)).encode() + b"\0")
+            with open(file, "rb") as f:
+                while piece := f.read(1 << 20):
+                    digest.update(piece)
+    except OSError:
+        return None  # validation names a missing file; the block's load says the rest
+    return digest.hexdigest()
+
+
 def input_digests(graph: Graph) -> dict[str, str]:
     """The content of every file a graph reads (``path`` parameters), as SHA-256 digests.
 
     A truth file replaced at the same path is another experiment: its digest differs.
     """
     out = {}
-    for block, cls in sorted(graph.classes.items()):
-        for name, param in cls.params.items():
-            value = graph.value(block, name)
-            if param.type != "path" or not value:
-                continue
-            digest = hashlib.sha256()
-            try:
-                # a Zarr store: each of its files, by its path inside the store
-                files = (
-                    sorted(p for p in Path(value).rglob("*") if p.is_file())
-                    if Path(value).is_dir()
-                    else [Path(value)]
-                )
-                for file in files:
-                    if file != Path(value):
-                        digest.update(str(file.relative_to(value)).encode() + b"\0")
-                    with open(file, "rb") as f:
-                        while piece := f.read(1 << 20):
-                            digest.update(piece)
-            except OSError:
-                continue  # validation names a missing file; the block's load says the rest
-            out[f"{block}.{name}"] = digest.hexdigest()
+    for key, path in input_paths(graph).items():
+        digest = file_digest(path)
+        if digest is not None:
+            out[key] = digest
     return out
 
 

@@ -45,6 +45,12 @@ class StudyCommand:
             "--check", action="store_true", help="validate the study and list its runs; run none"
         )
         parser.add_argument(
+            "--yes",
+            action="store_true",
+            help="plan and run a study above the size limit (more than "
+            "1000 runs or an estimated 24 h)",
+        )
+        parser.add_argument(
             "--report-only",
             action="store_true",
             help="rebuild DIR/report.html from a study's folder (no run): pasim study DIR "
@@ -67,14 +73,26 @@ class StudyCommand:
         from pasim_graph.interrupt import StopMessage, Stopped, stop_on_signals
         from pasim_graph.store import StoreError, StoreExistsError
 
+        from ..study.integrity import study_inputs
         from ..study.model import read_study
         from ..study.plan import plan_runs
         from ..study.runner import StudyError, execute, take_folder
         from ..study.scores import score_study, write_scores
+        from ..study.sizing import MAX_RUNS, MAX_SECONDS, duration, size_study
 
         study = read_study(args.study)
         problems = list(study.problems)
         runs: list = []
+        size = None
+        if study.systems and study.cases and not problems:
+            # Sized by arithmetic before the plan builds a graph per point.
+            size = size_study(study)
+            if size.over() and not args.yes:
+                raise UserError(
+                    f"{args.study}: {size.text()}: above the limit of {MAX_RUNS} runs or "
+                    f"{duration(MAX_SECONDS)}; give --yes to plan and run it anyway"
+                )
+            print(f"{args.study}: {size.text()}", file=sys.stderr)
         if study.systems and study.cases:
             # The runs are planned even on a flawed file: every problem is named at once.
             runs, more = plan_runs(study)
@@ -82,7 +100,8 @@ class StudyCommand:
         if problems:
             raise StudyProblems(problems)
         if args.check:
-            print(f"{args.study}: valid, {len(runs)} runs")
+            about = f", about {duration(size.seconds)}" if size is not None else ""
+            print(f"{args.study}: valid, {len(runs)} runs{about}")
             for r in runs:
                 print(f"  {r.key}")
             return 0
@@ -98,7 +117,7 @@ class StudyCommand:
                 raise UserError(str(exc)) from None
         out = Path(args.out)
         try:
-            state = take_folder(out, study, args.resume)
+            state = take_folder(out, study, args.resume, study_inputs(study, runs))
         except StudyError as exc:
             raise UserError(str(exc)) from None
 
@@ -129,6 +148,8 @@ class StudyCommand:
             ) from None
         except BlockError as exc:
             raise UserError(f"{args.study}: {exc}") from None
+        except StudyError as exc:
+            raise UserError(str(exc)) from None
         except (StoreError, StoreExistsError, ResumeError, ResourceError, SchedulerError) as exc:
             raise UserError(str(exc)) from None
         rescore()

@@ -22,6 +22,7 @@ every problem is collected with its line, as graph files are (:mod:`pasim_graph.
 from __future__ import annotations
 
 import itertools
+import math
 import os
 import re
 import stat
@@ -69,6 +70,10 @@ class Sweep:
     line: int = 0
     value_lines: dict[str, int] = field(default_factory=dict)
 
+    def count(self) -> int:
+        """How many points, without listing them."""
+        return math.prod(len(v) for v in self.values.values())
+
     def points(self) -> list[dict[str, Any]]:
         keys = list(self.values)
         return [
@@ -103,6 +108,16 @@ class Study:
             if system in sweep.systems:
                 return sweep.points()
         return [{}]
+
+    def point_count(self, system: str) -> int:
+        """How many sweep points a system runs at (1: no sweep), by arithmetic."""
+        sweep = next((s for s in self.sweeps if system in s.systems), None)
+        return sweep.count() if sweep is not None else 1
+
+    def first_point(self, system: str) -> dict[str, Any]:
+        """A system's first sweep point ({}: no sweep), without listing the others."""
+        sweep = next((s for s in self.sweeps if system in s.systems), None)
+        return {k: v[0] for k, v in sweep.values.items()} if sweep is not None else {}
 
     def system(self, name: str) -> System:
         return next(s for s in self.systems if s.name == name)

@@ -29,6 +29,7 @@ from typing import Any
 
 from pasim_graph.graph import Graph, GraphError, resolve
 from pasim_graph.graphfile import BlockSpec, GraphSpec, Problem, read
+from pasim_graph.resume_key import input_paths
 
 from .model import Case, Study, System, point_name
 
@@ -50,6 +51,7 @@ class Run:
     overrides: dict[str, Any]
     antennas: list[str] = field(default_factory=list)  # ideal antennas to give a beamwidth
     source_antenna: str = ""  # the system's antenna whose beamwidth they take
+    inputs: dict[str, str] = field(default_factory=dict)  # files it reads: {BLOCK.PARAM: path}
 
     @property
     def point_name(self) -> str:
@@ -128,6 +130,46 @@ def case_overrides(graph: Graph, case: Case) -> tuple[dict[str, Any], list[str]]
     return out, problems
 
 
+def _case_key(case: Case, key: str) -> str:
+    """The case's own setting behind one of its overrides (``key``, BLOCK.PARAM)."""
+    param = key.partition(".")[2]
+    if param.startswith("azimuth_"):
+        return f"sector {case.sector[0]:g}:{case.sector[1]:g}"
+    if param == "elevation_deg":
+        return f"elevation {case.elevation:g}"
+    if param == "path":
+        return f"truth {case.truth or '(the bundled scene)'}"
+    if param == "elevation_interpolation":
+        return f"interpolation {case.interpolation}"
+    return f"{param} {case.sweeps}"
+
+
+def collisions(study: Study, system: System, case: Case, on_case: dict[str, Any]) -> list[Problem]:
+    """A system's ``set:`` or sweep of a parameter that the case sets itself (the scan's
+    sector and elevation, the truth's file, cut and sweeps): refused, never silently
+    overridden by the case. A study varies these by its cases, one case per setting."""
+    sweep = next((s for s in study.sweeps if system.name in s.systems), None)
+    out = []
+    for key in on_case:
+        given = []
+        if key in system.overrides:
+            given.append((system.override_lines.get(key, system.line), f"set {key}"))
+        if sweep is not None and key in sweep.values:
+            given.append((sweep.value_lines.get(key, sweep.line), f"sweep {key}"))
+        for line, what in given:
+            out.append(
+                Problem(
+                    study.file,
+                    line,
+                    "",
+                    f"system '{system.name}', {what}",
+                    f"collides with case '{case.name}' ({_case_key(case, key)}), which sets "
+                    f"{key} itself; vary it with one case per value instead",
+                )
+            )
+    return out
+
+
 def _method_overrides(graph: Graph) -> dict[str, Any]:
     out = {}
     for name, cls in graph.classes.items():
@@ -185,7 +227,13 @@ def _variant(spec: GraphSpec, graph: Graph, short: bool) -> tuple[GraphSpec, lis
 
 
 def plan_runs(study: Study) -> tuple[list[Run], list[Problem]]:
-    """Every run of ``study``, each graph validated; problems collected, never raised."""
+    """Every run of ``study``, each graph validated; problems collected, never raised.
+
+    Each point's estimate graph is validated by the engine; the other runs of a system and
+    case differ from it by what the first point settles (the case, the reference levels, the
+    stand-in antenna and pulse), so their graphs are validated at the first point only, and
+    a point's files are its estimate's. One resolve per point: a 30 x 30 sweep plans in
+    seconds, not minutes (:mod:`.sizing` counts a study without planning it)."""
     runs: list[Run] = []
     problems: list[Problem] = []
     f = study.file
@@ -198,8 +246,9 @@ def plan_runs(study: Study) -> tuple[list[Run], list[Problem]]:
                 )
             continue
         for case in study.cases:
+            memo: dict[str, Any] = {}
             for point in study.points(system.name):
-                runs += _system_runs(study, system, spec, case, point, problems)
+                runs += _system_runs(study, system, spec, case, point, problems, memo)
     problems += _truth_problems(study)
     return runs, problems
 
@@ -219,39 +268,32 @@ def _located(study: Study, system: System, point: dict[str, Any], p: Problem) ->
     return Problem(study.file, system.line, "", f"system '{system.name}'", str(p))
 
 
-def _system_runs(
+def _settle(
     study: Study,
     system: System,
     spec: GraphSpec,
     case: Case,
     point: dict[str, Any],
     problems: list[Problem],
-) -> list[Run]:
-    overrides = {**system.overrides, **point}
+) -> dict[str, Any]:
+    """What every point of a system on a case shares (from its first point's graph): the
+    case's overrides, the reference levels, the calibration choices, the stand-in variants.
+    Empty where the graph cannot be built (its problems are named)."""
     try:
-        graph = resolve(spec, overrides).graph
+        graph = resolve(spec, {**system.overrides, **point}).graph
     except GraphError as exc:
         problems += [_located(study, system, point, p) for p in exc.problems]
-        return []
+        return {}
     on_case, trouble = case_overrides(graph, case)
     where = f"system '{system.name}', case '{case.name}'"
     problems += [Problem(study.file, case.line, "", where, t) for t in trouble]
-    overrides |= on_case
-    reference = overrides | _method_overrides(graph) | _floors(graph)
-    if not _method_overrides(graph):
+    problems += collisions(study, system, case, on_case)
+    method = _method_overrides(graph)
+    if not method:
         problems.append(
             Problem(study.file, system.line, "", where, "no weather block with method 'expected'")
         )
-    runs = [Run(system.name, case.name, point, "estimate", s, spec, overrides) for s in study.seeds]
-    runs += [
-        Run(system.name, case.name, point, "expected", s, spec, reference) for s in study.seeds
-    ]
-    if not point:
-        for choice, more in calibration_choices(graph)[1].items():
-            kind = f"{CALIBRATION}{choice}"
-            runs.append(
-                Run(system.name, case.name, point, kind, study.seeds[0], spec, overrides | more)
-            )
+    variants = []
     for kind, short in (("sidelobe_free", False), ("short_pulse", True)):
         vspec, antennas, source = _variant(spec, graph, short)
         if not antennas:
@@ -259,14 +301,67 @@ def _system_runs(
             continue
         # Overrides of the replaced blocks do not apply to their stand-ins.
         replaced = set(antennas) | {n for n, b in vspec.blocks.items() if b != spec.blocks.get(n)}
+        variants.append((kind, vspec, antennas, source, replaced))
+    return {
+        "on_case": on_case,
+        "reference": method | _floors(graph),
+        "calibration": calibration_choices(graph)[1],
+        "variants": variants,
+    }
+
+
+def _system_runs(
+    study: Study,
+    system: System,
+    spec: GraphSpec,
+    case: Case,
+    point: dict[str, Any],
+    problems: list[Problem],
+    memo: dict[str, Any],
+) -> list[Run]:
+    first = not memo
+    if first:
+        memo.update(_settle(study, system, spec, case, point, problems))
+        if not memo:
+            return []
+    where = f"system '{system.name}', case '{case.name}'"
+    overrides = {**system.overrides, **point, **memo["on_case"]}
+    reference = overrides | memo["reference"]
+    runs = [Run(system.name, case.name, point, "estimate", s, spec, overrides) for s in study.seeds]
+    runs += [
+        Run(system.name, case.name, point, "expected", s, spec, reference) for s in study.seeds
+    ]
+    if not point:
+        for choice, more in memo["calibration"].items():
+            kind = f"{CALIBRATION}{choice}"
+            runs.append(
+                Run(system.name, case.name, point, kind, study.seeds[0], spec, overrides | more)
+            )
+    for kind, vspec, antennas, source, replaced in memo["variants"]:
         kept = {k: v for k, v in reference.items() if k.partition(".")[0] not in replaced}
         runs.append(
             Run(system.name, case.name, point, kind, study.seeds[0], vspec, kept, antennas, source)
         )
-    for run in runs:
+    if not first:
+        # The estimate's graph at this point, validated; the other runs' are the first
+        # point's with this point's values.
         try:
-            run.graph()
+            files = input_paths(runs[0].graph())
         except GraphError as exc:
+            problems += [_located(study, system, point, p) for p in exc.problems]
+            return []
+        for run in runs:
+            run.inputs = dict(files)
+        return runs
+    checked: dict[str, dict[str, str]] = {}  # the seeds of a kind share one graph
+    for run in runs:
+        if run.kind in checked:
+            run.inputs = dict(checked[run.kind])
+            continue
+        try:
+            run.inputs = checked[run.kind] = input_paths(run.graph())
+        except GraphError as exc:
+            checked[run.kind] = {}
             problems += [
                 Problem(study.file, case.line, "", f"{where}, {run.kind} run", str(p))
                 for p in exc.problems

@@ -41,8 +41,13 @@ def digest(study: Study) -> str:
     return hashlib.sha256(study.text.encode()).hexdigest()[:16]
 
 
-def take_folder(out: Path, study: Study, resume: bool) -> dict[str, Any]:
-    """The study's manifest in ``out``, refusing a folder this program did not write."""
+def take_folder(
+    out: Path, study: Study, resume: bool, inputs: dict[str, Any] | None = None
+) -> dict[str, Any]:
+    """The study's manifest in ``out``, refusing a folder this program did not write, and
+    (with ``--resume``) one begun on other inputs (:func:`.integrity.study_inputs`)."""
+    from .integrity import changed_inputs
+
     manifest = out / MANIFEST
     if out.exists() and not out.is_dir():
         raise StudyError(f"{out}: exists and is not a folder; choose another --out")
@@ -60,6 +65,12 @@ def take_folder(out: Path, study: Study, resume: bool) -> dict[str, Any]:
                 f"{out}: the study file changed since this folder's study began "
                 f"({state.get('study_file')}); use another --out for the new study"
             )
+        why = changed_inputs(state.get("inputs"), inputs) if inputs is not None else ""
+        if why:
+            raise StudyError(
+                f"{out}: cannot resume this study: {why}; its finished runs would be mixed "
+                "with runs of other inputs: use another --out for the new study"
+            )
         return dict(state)
     if out.exists() and any(out.iterdir()):
         raise StudyError(
@@ -74,6 +85,7 @@ def take_folder(out: Path, study: Study, resume: bool) -> dict[str, Any]:
         "study_file": study.file,
         "study_digest": digest(study),
         "study_text": study.text,
+        "inputs": inputs or {},
         "runs": {},
         "beamwidths": {},
     }
@@ -169,6 +181,57 @@ def ensure_hardware(
         log(f"measured the hardware of {run.system}: {time.perf_counter() - t0:.1f} s")
 
 
+def beamwidth(study: Study, run: Run, runs: list[Run], state: dict[str, Any]) -> float | None:
+    """The beamwidth a reference run's ideal antenna takes (None for other runs): measured
+    once per system, case and point, and kept in the manifest."""
+    if not run.antennas:
+        return None
+    bkey = f"{run.system}/{run.case}/{run.point_name}"
+    bw = state["beamwidths"].get(bkey)
+    if bw is None:
+        estimate = next(
+            r
+            for r in runs
+            if (r.system, r.case, r.point_name, r.kind)
+            == (run.system, run.case, run.point_name, "estimate")
+        )
+        case = next(c for c in study.cases if c.name == run.case)
+        bw = measure_beamwidth(run, estimate, case.sector, case.elevation)
+        state["beamwidths"][bkey] = bw
+    return float(bw)
+
+
+def check_stores(study: Study, runs: list[Run], out: Path, state: dict[str, Any]) -> list[Run]:
+    """The runs still to do. A store already in a run's place (finished or not) must say it
+    is that run (:func:`.integrity.store_mismatch`): otherwise the study is refused, naming the
+    store, which is left as it is."""
+    from pasim_graph.dask_executor import DaskExecutor
+    from pasim_graph.executor import RunOptions
+    from pasim_graph.resume_key import run_key
+    from pasim_graph.store import is_store, run_state
+
+    from .integrity import store_mismatch
+
+    todo = []
+    for run in runs:
+        path = out / "runs" / run.key
+        stored = run_state(path) if path.exists() and is_store(path) else None
+        if stored is not None:
+            graph = run.graph(beamwidth(study, run, runs, state))
+            # The key the executor would write: its options as it settles them.
+            options = DaskExecutor(graph, RunOptions(seed=run.seed)).options
+            why = store_mismatch(stored[0], run, run_key(graph, options))
+            if why:
+                raise StudyError(
+                    f"{path}: refused, this store is not this run of the study: {why}; it is "
+                    "left as it is: remove it for --resume to run it again, or use another --out"
+                )
+            if bool(stored[1].all()):
+                continue
+        todo.append(run)
+    return todo
+
+
 def execute(
     study: Study,
     runs: list[Run],
@@ -186,6 +249,10 @@ def execute(
     from pasim_graph.dask_executor import DaskExecutor
     from pasim_graph.executor import RunOptions
 
+    from .integrity import identity
+
+    t_start = time.perf_counter()
+    todo = check_stores(study, runs, out, state)
     cluster = None
     if workers:
         import dask
@@ -196,10 +263,7 @@ def execute(
                 n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
             )
         scheduler = cluster.scheduler_address
-    cases = {c.name: c for c in study.cases}
-    t_start = time.perf_counter()
     computed = 0
-    todo = [r for r in runs if not finished(out / "runs" / r.key)]
     kept = len(runs) - len(todo)
     if kept:
         log(f"keeping {kept} finished run(s) of {len(runs)}")
@@ -208,21 +272,7 @@ def execute(
         for i, run in enumerate(todo, 1):
             path = out / "runs" / run.key
             path.parent.mkdir(parents=True, exist_ok=True)
-            bw = None
-            if run.antennas:
-                bkey = f"{run.system}/{run.case}/{run.point_name}"
-                bw = state["beamwidths"].get(bkey)
-                if bw is None:
-                    estimate = next(
-                        r
-                        for r in runs
-                        if (r.system, r.case, r.point_name, r.kind)
-                        == (run.system, run.case, run.point_name, "estimate")
-                    )
-                    case = cases[run.case]
-                    bw = measure_beamwidth(run, estimate, case.sector, case.elevation)
-                    state["beamwidths"][bkey] = bw
-            graph = run.graph(bw)
+            graph = run.graph(beamwidth(study, run, runs, state))
             attrs = {
                 "title": "PASIM-graph simulated radar volume",
                 "Conventions": "Cf/Radial",
@@ -230,14 +280,10 @@ def execute(
                 "pasim_graph_version": __version__,
                 "graph": graph.text(),
                 "graph_file": str(study.system(run.system).graph),
-                "seed": run.seed,
                 "simulated": "true",
                 "source": "PASIM-graph simulation",
                 "study": study.file,
-                "study_system": run.system,
-                "study_case": run.case,
-                "study_point": run.point_name,
-                "study_run": run.kind,
+                **identity(run),
             }
             t0 = time.perf_counter()
             executor = DaskExecutor(
