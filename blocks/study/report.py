@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from pasim_graph.outputs import write_atomic
+
 from .design_figures import (
     PART_COLOURS,
     PART_LABELS,
@@ -30,7 +32,7 @@ from .design_figures import (
 )
 from .figures import Figure, canvas, uri
 from .hardware_figures import hardware_figure, hardware_table
-from .runner import MANIFEST, StudyError, write_atomic
+from .runner import MANIFEST, StudyError
 from .scores import FIELDS
 
 REPORT = "report.html"

@@ -11,12 +11,13 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import os
 import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+from pasim_graph.outputs import write_atomic
 
 from .model import Study
 from .plan import Run
@@ -26,15 +27,6 @@ MANIFEST = "pasim-study.json"
 
 class StudyError(Exception):
     """A study that cannot go on (printed as one line, exit 2)."""
-
-
-def write_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "w") as f:
-        f.write(text)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
 
 
 def digest(study: Study) -> str:

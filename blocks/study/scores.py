@@ -526,7 +526,7 @@ def csv_rows(result: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def write_scores(out: Path, result: dict[str, Any]) -> None:
-    from .runner import write_atomic
+    from pasim_graph.outputs import write_atomic
 
     write_atomic(out / "scores.json", json.dumps(json_safe(result), indent=1) + "\n")
     buf = io.StringIO()

@@ -43,7 +43,8 @@ from ..graphfile import (
     parse_value,
     read,
 )
-from .folder import GRAPH_SUFFIXES, Folder, RequestError, write_atomic
+from ..outputs import write_atomic
+from .folder import GRAPH_SUFFIXES, Folder, RequestError
 from .summary import key_values, system_summary
 
 __all__ = ["GRAPH_SUFFIXES", "Folder", "RequestError", "write_atomic"]

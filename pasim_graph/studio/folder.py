@@ -12,7 +12,8 @@ Everything a client can make the studio touch on disk goes through here:
   waveform): confined to the folder when the studio validates or runs the graph
   (:meth:`Folder.path_problem`). A path outside is refused by name, before anything looks at
   it, so a client learns neither whether the file exists nor a byte of it;
-- writes (:func:`write_atomic`): a temporary file beside the target, then a rename.
+- writes go through :func:`pasim_graph.outputs.write_atomic` (a temporary file beside the
+  target, then a rename).
 """
 
 from __future__ import annotations
@@ -20,7 +21,6 @@ from __future__ import annotations
 import json
 import os
 import stat
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -261,20 +261,3 @@ class Folder:
                 f"({self.root}) only"
             )
         return None
-
-
-def write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` all at once: a temporary file beside it, then a rename."""
-    mode = path.stat().st_mode & 0o777 if path.exists() else None
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        if mode is not None:
-            os.chmod(tmp, mode)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
