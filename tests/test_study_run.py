@@ -231,3 +231,30 @@ def test_a_signalled_study_ends_with_one_line_and_resumes(tmp_path, study, sig):
     res = subprocess.run([*cmd, "--resume"], capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr
     assert json.loads((out / "scores.json").read_text()) == scores(study)
+
+
+@pytest.mark.parametrize(
+    "edit, words",
+    [
+        (lambda m: {k: v for k, v in m.items() if k != "beamwidths"}, "no 'beamwidths'"),
+        (lambda m: m | {"runs": []}, "'runs' is a list"),
+        (lambda m: [], "a JSON list"),
+        (lambda m: m | {"format": "other/2"}, "format 'other/2'"),
+    ],
+)
+def test_a_hand_edited_manifest_is_one_line(tmp_path, capsys, study, edit, words):
+    """A manifest with "beamwidths" removed, "runs": [] or [] ended in KeyError or
+    AttributeError (issue 34): --resume and --report-only refuse it in one line naming the
+    file, and touch nothing."""
+    manifest = json.loads((study / "pasim-study.json").read_text())
+    (tmp_path / "pasim-study.json").write_text(json.dumps(edit(manifest)))
+    (tmp_path / "scores.json").write_text((study / "scores.json").read_text())
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    for flag in ("--resume", "--report-only"):
+        assert main(["study", str(STUDY), "--out", str(tmp_path), flag]) == 2
+        err = capsys.readouterr().err
+        # (--resume says first how many runs the study has: not an error)
+        lines = [line for line in err.splitlines() if line.startswith("error:")]
+        assert len(lines) == 1 and "Traceback" not in err, err
+        assert "pasim-study.json" in lines[0] and words in lines[0], lines[0]
+        assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before

@@ -32,7 +32,7 @@ from .design_figures import (
 )
 from .figures import Figure, canvas, uri
 from .hardware_figures import hardware_figure, hardware_table
-from .runner import MANIFEST, StudyError
+from .runner import MANIFEST, StudyError, read_manifest
 from .scores import FIELDS
 
 REPORT = "report.html"
@@ -122,8 +122,9 @@ def load(out: Path) -> tuple[dict[str, Any], dict[str, Any]]:
         raise StudyError(f"{out}: not a study folder ({MANIFEST} missing)")
     if not scores.is_file():
         raise StudyError(f"{out}: no scores.json yet (no system has all its runs finished)")
+    state = read_manifest(manifest)
     try:
-        return json.loads(manifest.read_text()), json.loads(scores.read_text())
+        return state, json.loads(scores.read_text())
     except (OSError, ValueError) as exc:
         raise StudyError(f"{out}: unreadable study files ({exc})") from None
 

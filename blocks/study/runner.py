@@ -33,6 +33,50 @@ def digest(study: Study) -> str:
     return hashlib.sha256(study.text.encode()).hexdigest()[:16]
 
 
+#: What a manifest of this program holds, and the type of each (a hand-edited or foreign
+#: manifest is refused in one line, never a KeyError in the middle of a study).
+MANIFEST_KEYS: dict[str, type] = {
+    "format": str,
+    "study_digest": str,
+    "runs": dict,
+    "beamwidths": dict,
+}
+MANIFEST_FORMAT = "pasim-study-manifest/1"
+
+
+def read_manifest(path: Path) -> dict[str, Any]:
+    """A study manifest, checked to be this program's: StudyError naming the file and what is
+    wrong otherwise."""
+    try:
+        state = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise StudyError(f"{path}: unreadable study manifest ({exc})") from None
+    problem = ""
+    if not isinstance(state, dict):
+        problem = f"a JSON {type(state).__name__}, not an object"
+    else:
+        missing = [k for k in MANIFEST_KEYS if k not in state]
+        wrong = [
+            f"{k!r} is a {type(state[k]).__name__}, not a {MANIFEST_KEYS[k].__name__}"
+            for k in MANIFEST_KEYS
+            if k in state and not isinstance(state[k], MANIFEST_KEYS[k])
+        ]
+        if missing:
+            problem = f"no {', '.join(repr(k) for k in missing)}"
+        elif wrong:
+            problem = "; ".join(wrong)
+        elif state["format"] != MANIFEST_FORMAT:
+            problem = f"format {state['format']!r}, not {MANIFEST_FORMAT!r}"
+        elif not all(isinstance(v, dict) for v in state["runs"].values()):
+            problem = "'runs' holds entries that are not objects"
+    if problem:
+        raise StudyError(
+            f"{path}: not a study manifest this program wrote ({problem}); the folder is left "
+            "untouched: choose another --out"
+        )
+    return state
+
+
 def take_folder(
     out: Path, study: Study, resume: bool, inputs: dict[str, Any] | None = None
 ) -> dict[str, Any]:
@@ -44,10 +88,7 @@ def take_folder(
     if out.exists() and not out.is_dir():
         raise StudyError(f"{out}: exists and is not a folder; choose another --out")
     if manifest.is_file():
-        try:
-            state = json.loads(manifest.read_text())
-        except (OSError, ValueError) as exc:
-            raise StudyError(f"{manifest}: unreadable study manifest ({exc})") from None
+        state = read_manifest(manifest)
         if not resume:
             raise StudyError(
                 f"{out} holds a study already: complete it with --resume, or choose another --out"
@@ -73,7 +114,7 @@ def take_folder(
         raise StudyError(f"{out}: the folder {out.parent} does not exist")
     out.mkdir(exist_ok=True)
     state = {
-        "format": "pasim-study-manifest/1",
+        "format": MANIFEST_FORMAT,
         "study_file": study.file,
         "study_digest": digest(study),
         "study_text": study.text,
