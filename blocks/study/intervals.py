@@ -102,9 +102,12 @@ def noise_contributions(d: np.ndarray, noise: np.ndarray) -> tuple[np.ndarray, n
     e = np.where(ok, d, 0.0)
     s = np.where(ok, d - noise, 0.0)
     ebar, sbar = e.sum() / N, s.sum() / N
-    de = np.where(ok, (e - ebar) ** 2 - (s - sbar) ** 2, 0.0).sum(1) / (N - 1)
+    g = np.where(ok, (e - ebar) ** 2 - (s - sbar) ** 2, 0.0)
+    # Less each gate's mean share: beams scoring more gates do not differ in mean for it.
+    de = (g.sum(1) - ok.sum(1) * g.sum() / N) / (N - 1)
     std = math.sqrt(max(float(np.where(ok, (e - ebar) ** 2, 0.0).sum() / (N - 1)), 1e-300))
-    return de / (2 * std), np.where(ok, noise, 0.0).sum(1) / N
+    nb = np.where(ok, noise, 0.0)
+    return de / (2 * std), (nb.sum(1) - ok.sum(1) * nb.sum() / N) / N
 
 
 def successive_variance(c: np.ndarray) -> float:
