@@ -151,10 +151,12 @@ def _summary(scores: dict[str, Any], systems: list[str], case: str) -> list[dict
                     {
                         "system": system if point == "-" else f"{system} ({point})",
                         "std": _fmt(s["std"]),
-                        "std_ci": _ci(s["std_ci"]),
+                        "std_noise_ci": _ci((s.get("noise_ci") or {}).get("std")),
+                        "std_scene_ci": _ci((s.get("scene_ci") or {}).get("std", s["std_ci"])),
                         "robust": _fmt(s["robust_std"]),
                         "bias": _fmt(s["bias"]),
-                        "bias_ci": _ci(s["bias_ci"]),
+                        "bias_noise_ci": _ci((s.get("noise_ci") or {}).get("bias")),
+                        "bias_scene_ci": _ci((s.get("scene_ci") or {}).get("bias", s["bias_ci"])),
                         "count": _fmt(s["count"]),
                         "pass": bool(s["pass"]),
                         "reference_std": _fmt(ref.get("std")),
@@ -179,23 +181,57 @@ def _summary(scores: dict[str, Any], systems: list[str], case: str) -> list[dict
 
 def _rankings(scores: dict[str, Any], case: str) -> list[dict[str, Any]]:
     out = []
+    pairs = scores["_study"].get("pairs", {}).get(case, {})
     for name, groups in scores["_study"].get("rankings", {}).get(case, {}).items():
         if not groups:
             continue
         if len(groups) == 1:
             text = (
-                f"no ranking: the intervals of {', '.join(groups[0])} overlap"
+                f"no ranking: {', '.join(groups[0])} are not separated"
                 if len(groups[0]) > 1
                 else f"one system ({groups[0][0]})"
             )
         else:
             parts = [
-                " = ".join(g) + (" (intervals overlap: not ranked)" if len(g) > 1 else "")
+                " = ".join(g) + (" (not separated: not ranked)" if len(g) > 1 else "")
                 for g in groups
             ]
             text = " < ".join(parts)
-        out.append({"field": name, "text": text, "ranked": len(groups) > 1})
+        out.append(
+            {
+                "field": name,
+                "text": text,
+                "ranked": len(groups) > 1,
+                "pairs": [_pair_row(r) for r in pairs.get(name, [])],
+            }
+        )
     return out
+
+
+def _pair_row(r: dict[str, Any]) -> dict[str, Any]:
+    """One paired comparison in words: the difference, both intervals, what separated it."""
+    by = r.get("separated_by", [])
+    if r.get("ranked"):
+        said = f"{r['a']} < {r['b']}: separated by both the noise and the scene interval"
+    elif by == ["noise"]:
+        said = (
+            f"unranked: the noise interval separates {r['a']} from {r['b']} on this weather, "
+            "the scene interval does not"
+        )
+    elif by == ["scene"]:
+        said = "unranked within noise (the scene interval alone excludes zero)"
+    else:
+        said = "unranked within noise"
+    return {
+        "a": r["a"],
+        "b": r["b"],
+        "difference": _fmt(r["difference"]),
+        "noise_ci": _ci(r["noise_ci"]),
+        "scene_ci": _ci(r["scene_ci"]),
+        "unpaired_ci": _ci(r["unpaired_scene_ci"]),
+        "ratio": _fmt(r["paired_over_unpaired"], 2),
+        "verdict": said,
+    }
 
 
 def _budget_rows(scores: dict[str, Any], systems: list[str], case: str) -> list[dict[str, Any]]:

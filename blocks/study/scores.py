@@ -2,10 +2,13 @@
 
 Every statistic is of a gate's error (estimate minus reference), velocity and phi_DP on their
 circles (the scorer's ``period``): against the raw NEXRAD gates (the scorer's ``error_*``),
-against the reference system's ``expected`` level and against the system's own. Intervals
-(95 %) come from the seeds when there are several (Student's t on the per-seed values), else
-from a block bootstrap over whole beams in blocks of about three beamwidths: neighbouring
-gates and beams are correlated, so a naive standard error would be far too small.
+against the reference system's ``expected`` level and against the system's own. Every
+statistic has two 95 % intervals (:mod:`.intervals`): the noise interval (another noise draw
+of the same weather: Student's t across seeds, or the delta-method variance under the noise
+with one seed) and the scene interval (another stretch of weather: a block bootstrap over
+whole beams in blocks of about three beamwidths; neighbouring gates and beams are correlated,
+so a naive standard error would be far too small). Rankings compare systems in pairs, through
+the per-beam difference of their statistics on the gates both scored.
 """
 
 from __future__ import annotations
@@ -23,12 +26,17 @@ import numpy as np
 from pasim_graph.serialize import json_safe
 
 from ..signals import MOMENT_FIELDS
-from .intervals import t_interval
+from .intervals import (
+    BOOTSTRAP,
+    block_sums,
+    noise_interval,
+    paired,
+    scene_interval,
+)
 from .model import Study
 from .plan import CALIBRATION, Run
 
 FIELDS = MOMENT_FIELDS
-BOOTSTRAP = 1000
 BLOCK_BEAMWIDTHS = 3.0
 #: The quadrature sum of the parts must match the total within this fraction.
 BUDGET_TOLERANCE = 0.10
@@ -93,35 +101,27 @@ def robust_std(x: np.ndarray) -> float:
     return float(MAD_TO_STD * np.median(np.abs(x - np.median(x))))
 
 
-def _beam_sums(d: np.ndarray, block: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    ok = np.isfinite(d)
-    x = np.where(ok, d, 0.0)
-    n, s1, s2 = ok.sum(1).astype(float), x.sum(1), (x * x).sum(1)
-    starts = np.arange(0, d.shape[0], block)
-    return (np.add.reduceat(n, starts), np.add.reduceat(s1, starts), np.add.reduceat(s2, starts))
-
-
 def bootstrap(d: np.ndarray, block: int, seed: int = 0) -> tuple[list[float], list[float]]:
-    """95 % intervals of (std, bias) of the finite values of ``d`` (beam, range), resampling
-    whole blocks of ``block`` beams with replacement."""
-    n, s1, s2 = _beam_sums(d, max(1, block))
-    if n.size < 2 or n.sum() < 3:
-        return [math.nan, math.nan], [math.nan, math.nan]
-    rng = np.random.default_rng(seed)
-    pick = rng.integers(0, n.size, size=(BOOTSTRAP, n.size))
-    N, S1, S2 = n[pick].sum(1), s1[pick].sum(1), s2[pick].sum(1)
-    ok = N > 1
-    bias = S1[ok] / N[ok]
-    var = np.maximum(S2[ok] - S1[ok] ** 2 / N[ok], 0.0) / (N[ok] - 1)
-    std = np.sqrt(var)
-    q = [2.5, 97.5]
-    return [float(v) for v in np.percentile(std, q)], [float(v) for v in np.percentile(bias, q)]
+    """95 % scene intervals of (std, bias) of the finite values of ``d`` (beam, range),
+    resampling whole blocks of ``block`` beams with replacement."""
+    return scene_interval([d], block, seed)
+
+
+NOISE_ONE_SEED = (
+    "noise: delta-method variance under the noise alone (estimate minus own expected level), "
+    "the scene held fixed, from successive differences of per-beam contributions"
+)
 
 
 def statistics(
-    per_seed: list[np.ndarray], block: int, requirement: tuple[float, float]
+    per_seed: list[np.ndarray],
+    block: int,
+    requirement: tuple[float, float],
+    noise: list[np.ndarray] | None = None,
 ) -> dict[str, Any]:
-    """Std, robust spread, bias, count and their intervals of per-seed errors (beam, range)."""
+    """Std, robust spread, bias, count and their noise and scene intervals of per-seed errors
+    (beam, range); ``noise``: each seed's noise term (estimate minus own expected level) on
+    the same grid, for the one-seed noise interval."""
     rows = []
     for d in per_seed:
         x = d[np.isfinite(d)]
@@ -135,22 +135,28 @@ def statistics(
         )
     std, rstd, bias = (float(np.mean([r[i] for r in rows])) for i in range(3))
     count = int(rows[0][3])
-    if len(per_seed) > 1:
-        std_ci, bias_ci = t_interval([r[0] for r in rows]), t_interval([r[2] for r in rows])
-        interval = f"Student's t across {len(per_seed)} seeds"
-    else:
-        std_ci, bias_ci = bootstrap(per_seed[0], block)
-        interval = f"block bootstrap over beams, blocks of {block} beams, {BOOTSTRAP} resamples"
+    noise_std, noise_bias = noise_interval(per_seed, noise)
+    scene_std, scene_bias = scene_interval(per_seed, block)
+    noise_how = (
+        f"noise: Student's t across {len(per_seed)} seeds" if len(per_seed) > 1 else NOISE_ONE_SEED
+    )
+    scene_how = (
+        f"scene: block bootstrap over beams, blocks of {block} beams, {BOOTSTRAP} resamples"
+        + (f", the same blocks for the {len(per_seed)} seeds" if len(per_seed) > 1 else "")
+    )
     req_b, req_s = requirement
     return {
         "std": std,
-        "std_ci": std_ci,
         "robust_std": rstd,
         "bias": bias,
-        "bias_ci": bias_ci,
         "count": count,
         "pass": bool(count > 1 and abs(bias) <= req_b and std <= req_s),
-        "interval": interval,
+        "noise_ci": {"std": noise_std, "bias": noise_bias, "method": noise_how},
+        "scene_ci": {"std": scene_std, "bias": scene_bias, "method": scene_how},
+        # Compatibility (sweep trends, design figures, older readers): the scene interval.
+        "std_ci": scene_std,
+        "bias_ci": scene_bias,
+        "interval": f"{noise_how}; {scene_how}; std_ci and bias_ci are the scene interval",
     }
 
 
@@ -159,7 +165,7 @@ def std_intervals(
 ) -> dict[str, list[float]]:
     """95 % intervals of the std of each term (beam, range) on the gates ``ok``, by one block
     bootstrap over beams shared by all terms (the same resampled beams for every part)."""
-    sums = {k: _beam_sums(np.where(ok, d, np.nan), max(1, block)) for k, d in terms.items()}
+    sums = {k: block_sums(np.where(ok, d, np.nan), max(1, block)) for k, d in terms.items()}
     n = next(iter(sums.values()))[0]
     if n.size < 2 or n.sum() < 3:
         return {k: [math.nan, math.nan] for k in terms}
@@ -212,6 +218,10 @@ def budget(
             k: p * p / quadrature**2 if quadrature > 0 else math.nan for k, p in parts.items()
         },
         "ci": std_intervals({**parts_d, "total": est}, ok, block),
+        "ci_method": (
+            "scene: the bootstrap of the parts, one block bootstrap over beams (every seed's "
+            "gates of a beam kept together) resampling all parts and the total together"
+        ),
     }
     adds = total > 0 and abs(quadrature - total) <= BUDGET_TOLERANCE * total
     out["adds_up"] = bool(adds)
@@ -270,6 +280,7 @@ def score_study(
 
     result: dict[str, Any] = {}
     notes: list[str] = []
+    pairs: dict[str, Any] = {}
     for case in study.cases:
         # The gates every system of the case scored, per seed and field.
         common: dict[tuple[int, str], np.ndarray | None] = {}
@@ -310,6 +321,7 @@ def score_study(
                     )
                 if entry is not None:
                     result.setdefault(system.name, {}).setdefault(case.name, {})[point] = entry
+        pairs[case.name] = case_pairs(study, case.name, result, find, get, common, beamwidths)
     result["_study"] = {
         "format": "pasim-study-scores/1",
         "patterns": patterns or {},
@@ -319,7 +331,8 @@ def score_study(
         "seeds": study.seeds,
         "beamwidths_deg": beamwidths,
         "notes": sorted(set(notes)),
-        "rankings": rankings(study, result),
+        "rankings": rankings(study, result, pairs),
+        "pairs": pairs,
         "cases": {
             c.name: {
                 "truth": c.truth,
@@ -389,20 +402,26 @@ def _score_point(
         period = est[0].periods.get(name)
         req = est[0].requirements[name]
         e = [x.fields[name] for x in est]
+        # The noise term of every statistic of this field: estimate minus own expected level.
+        noise = (
+            [wrap(x - o.fields[name], period) for x, o in zip(e, own, strict=True)]
+            if all(name in o.fields and o.same_grid(est[0]) for o in own)
+            else None
+        )
 
-        entry = statistics(e, block, req)
+        entry = statistics(e, block, req, noise)
         entry["units"] = est[0].units.get(name, "")
         entry["requirement_bias"], entry["requirement_std"] = req
-        entry["reference"] = _against(est, name, period, block, req, ref)
-        entry["own_expected"] = _against(est, name, period, block, req, own)
+        entry["reference"] = _against(est, name, period, block, req, ref, noise=noise)
+        entry["own_expected"] = _against(est, name, period, block, req, own, noise=noise)
         masks = [common.get((s, name)) for s in study.seeds]
         if all(m is not None for m in masks):
             full = [m for m in masks if m is not None]
             c = statistics(
-                [np.where(m, x, np.nan) for m, x in zip(full, e, strict=True)], block, req
+                [np.where(m, x, np.nan) for m, x in zip(full, e, strict=True)], block, req, noise
             )
-            c["reference"] = _against(est, name, period, block, req, ref, masks)
-            c["own_expected"] = _against(est, name, period, block, req, own, masks)
+            c["reference"] = _against(est, name, period, block, req, ref, masks, noise)
+            c["own_expected"] = _against(est, name, period, block, req, own, masks, noise)
             entry["common"] = c
         else:
             entry["common"] = None
@@ -412,11 +431,12 @@ def _score_point(
             and free.same_grid(est[0])
             and short.same_grid(est[0])
         ):
+            # Seeds side by side along range: a beam's gates of every seed stay in one block.
             entry["budget"] = budget(
-                np.concatenate(e),
-                np.concatenate([o.fields[name] for o in own]),
-                np.concatenate([free.fields[name]] * len(e)),
-                np.concatenate([short.fields[name]] * len(e)),
+                np.concatenate(e, axis=1),
+                np.concatenate([o.fields[name] for o in own], axis=1),
+                np.concatenate([free.fields[name]] * len(e), axis=1),
+                np.concatenate([short.fields[name]] * len(e), axis=1),
                 period,
                 block,
             )
@@ -435,6 +455,7 @@ def _against(
     req: tuple[float, float],
     others: list[Any],
     masks: list[np.ndarray | None] | None = None,
+    noise: list[np.ndarray] | None = None,
 ) -> dict[str, Any] | None:
     """Statistics of each seed's estimate minus another store's level (None: not comparable)."""
     ds = []
@@ -449,15 +470,89 @@ def _against(
                 return None
             d = np.where(m, d, np.nan)
         ds.append(d)
-    return statistics(ds, block, req)
+    return statistics(ds, block, req, noise)
 
 
-def rankings(study: Study, result: dict[str, Any]) -> dict[str, Any]:
-    """Per case and field, the unswept systems by std against the raw gates on own gates, in
-    groups: a system starts a new group only where its interval separates from the last."""
+def case_pairs(
+    study: Study,
+    case: str,
+    result: dict[str, Any],
+    find: Any,
+    get: Any,
+    common: dict[tuple[int, str], np.ndarray | None],
+    beamwidths: dict[str, float],
+) -> dict[str, list[dict[str, Any]]]:
+    """Per field, every pair of the case's scored unswept systems compared on the gates every
+    system scored, seed by seed (:func:`.intervals.paired`): ``a`` has the smaller std."""
+    out: dict[str, list[dict[str, Any]]] = {}
+    scored = [s.name for s in study.systems if "-" in result.get(s.name, {}).get(case, {})]
+    loaded: dict[str, tuple[list[Any], list[Any], int]] = {}
+    for name in scored:
+        est = [get(find(name, case, "-", "estimate", s)) for s in study.seeds]
+        own = [get(find(name, case, "-", "expected", s)) for s in study.seeds]
+        if any(x is None for x in est + own):
+            continue
+        block = _block_beams(est[0].azimuth, beamwidths.get(f"{name}/{case}/-"))
+        loaded[name] = (est, own, block)
+    for field in FIELDS:
+        maybe = [common.get((s, field)) for s in study.seeds]
+        masks = [m for m in maybe if m is not None]
+        if len(masks) < len(maybe):
+            continue
+        series: dict[str, tuple[list[np.ndarray], list[np.ndarray] | None, int]] = {}
+        for name, (est, own, block) in loaded.items():
+            if field not in est[0].fields:
+                continue
+            period = est[0].periods.get(field)
+            e = [np.where(m, x.fields[field], np.nan) for m, x in zip(masks, est, strict=True)]
+            noise = (
+                [
+                    wrap(x.fields[field] - o.fields[field], period)
+                    for x, o in zip(est, own, strict=True)
+                ]
+                if all(field in o.fields and o.same_grid(x) for x, o in zip(est, own, strict=True))
+                else None
+            )
+            series[name] = (e, noise, block)
+        names = sorted(series, key=lambda k: float(np.mean([np.nanstd(x) for x in series[k][0]])))
+        rows = []
+        for i, a in enumerate(names):
+            for b in names[i + 1 :]:
+                ea, na, ba = series[a]
+                eb, nb, bb = series[b]
+                rows.append({"a": a, "b": b, **paired(ea, eb, max(ba, bb), na, nb)})
+        out[field] = rows
+    return out
+
+
+def rankings(
+    study: Study, result: dict[str, Any], pairs: dict[str, Any] | None = None
+) -> dict[str, Any]:
+    """Per case and field, the unswept systems in groups, best first. With the paired
+    comparisons (``pairs``, on common gates): systems ordered by their common-gate std, and a
+    system starts a new group only where it is ranked (both paired intervals of its
+    difference exclude zero) against every system of the group before. Without them (the
+    systems share no gates): by std on own gates, a new group where the scene intervals
+    separate."""
     out: dict[str, Any] = {}
     for case in study.cases:
         for name in FIELDS:
+            rows_p = (pairs or {}).get(case.name, {}).get(name)
+            if rows_p:
+                order: list[str] = []
+                for r in rows_p:
+                    order += [k for k in (r["a"], r["b"]) if k not in order]
+                ranked = {(r["a"], r["b"]) for r in rows_p if r["ranked"]}
+                groups_p: list[list[str]] = []
+                for sname in order:
+                    if groups_p and all((g, sname) in ranked for g in groups_p[-1]):
+                        groups_p.append([sname])
+                    elif groups_p:
+                        groups_p[-1].append(sname)
+                    else:
+                        groups_p.append([sname])
+                out.setdefault(case.name, {})[name] = groups_p
+                continue
             rows = []
             for system in study.systems:
                 s = result.get(system.name, {}).get(case.name, {}).get("-", {}).get(name)
@@ -484,6 +579,14 @@ def _stat_rows(base: dict[str, Any], against: str, st: dict[str, Any]) -> list[d
         v = st[q]
         pairs = ((f"{q}_lo", v[0]), (f"{q}_hi", v[1])) if isinstance(v, list) else ((q, v),)
         rows += [{**base, "against": against, "quantity": k, "value": x} for k, x in pairs]
+    for kind in ("noise_ci", "scene_ci"):
+        for q in ("std", "bias"):
+            lo, hi = (st.get(kind) or {}).get(q, [math.nan, math.nan])
+            prefix = f"{q}_{kind.removesuffix('_ci')}_ci"
+            rows += [
+                {**base, "against": against, "quantity": f"{prefix}_{end}", "value": x}
+                for end, x in (("lo", lo), ("hi", hi))
+            ]
     return rows
 
 
