@@ -10,12 +10,18 @@ variable stops the run at that block; ``pasim blocks`` shows units, bounds and s
 from __future__ import annotations
 
 import argparse
+import fcntl
+import hashlib
+import json
+import os
 import re
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 import xarray as xr
+from threadpoolctl import threadpool_limits
 
 from pasim_graph import (
     DATASET,
@@ -308,11 +314,55 @@ def test_library_blocks_return_what_they_declare(label, source, options, tmp_pat
 
     monkeypatch.setattr(executor, "_check_outputs", counting)
     ex = LocalExecutor(graph, options)
-    sweep = ex.run()
+    # One BLAS thread: a product's rounding depends on how many threads split it, and the
+    # fingerprint below must not depend on the machine's thread count.
+    with threadpool_limits(limits=1, user_api="blas"):
+        sweep = ex.run()
     assert set(checked) == {type(b).type_name for b in ex.plan.blocks.values()}, label
     assert sweep.sizes["beam"] == 2
     if options.fields == ("DBZH",):
         assert "DBZH" in sweep and "VRADH" not in sweep
+    check_fingerprint(label, sweep)
+
+
+#: Each graph's numbers on its two beams, as a digest of every stored value (tests/
+#: fingerprints.json): a change of layout or a refactor must leave every number to the bit;
+#: a change of physics rewrites them on purpose (PASIM_UPDATE_FINGERPRINTS=1) and the diff
+#: shows which graphs it moved.
+FINGERPRINTS = Path(__file__).parent / "fingerprints.json"
+
+
+def fingerprint(sweep: Any) -> str:
+    digest = hashlib.sha256()
+    for name in sorted(sweep.variables):
+        values = np.asarray(sweep[name].values)
+        if values.dtype.kind in "fc":
+            values = np.where(np.isnan(values), np.nan, values)  # one NaN pattern
+        digest.update(f"{name}:{values.dtype.str}:{values.shape}".encode())
+        digest.update(
+            np.ascontiguousarray(values).tobytes()
+            if values.dtype.kind != "O"
+            else repr(values.tolist()).encode()
+        )
+    return digest.hexdigest()[:24]
+
+
+def check_fingerprint(label: str, sweep: Any) -> None:
+    value = fingerprint(sweep)
+    if os.environ.get("PASIM_UPDATE_FINGERPRINTS"):
+        # Test workers (pytest-xdist) may record at once: one at a time through a file lock.
+        with open(FINGERPRINTS.with_suffix(".lock"), "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            known = json.loads(FINGERPRINTS.read_text()) if FINGERPRINTS.exists() else {}
+            known[label] = value
+            FINGERPRINTS.write_text(json.dumps(dict(sorted(known.items())), indent=1) + "\n")
+        return
+    known = json.loads(FINGERPRINTS.read_text())
+    assert label in known, f"{label}: no fingerprint (PASIM_UPDATE_FINGERPRINTS=1 records it)"
+    assert known[label] == value, (
+        f"{label}: its numbers changed (fingerprint {value}, recorded {known[label]}); if the "
+        "change is meant, rerun with PASIM_UPDATE_FINGERPRINTS=1 and say why in the commit"
+    )
 
 
 def test_misspelt_variable_stops_the_run_at_its_block(plugin_env, tmp_path):  # noqa: F811
