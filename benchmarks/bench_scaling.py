@@ -251,7 +251,8 @@ def main() -> int:
             light["tasks"] = len(row["record"]["tasks"])
         print(json.dumps(light), flush=True)
         with open(args.out, "a") as f:
-            f.write(json.dumps({**light, "record": row.get("record")}) + "\n")
+            kept = {k: row[k] for k in ("record", "records") if k in row}
+            f.write(json.dumps({**light, **kept}) + "\n")
         rows.append(row)
 
     for rnd in range(args.repeat):
