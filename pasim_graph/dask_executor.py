@@ -690,7 +690,7 @@ class DaskExecutor:
         path: str,
         attrs: dict[str, Any],
     ) -> list[dict[str, Any] | None]:
-        from distributed import progress
+        from distributed import progress, wait
 
         if not todo:
             return []
@@ -717,14 +717,7 @@ class DaskExecutor:
         try:
             if self.progress:
                 progress(futures)
-            # Polled, not distributed.wait (which waits through the process's latest client:
-            # another run's, when a study runs several at once), so that a run in another
-            # thread than the one signals stop sees the stop and gives its chunks back.
-            while not all(f.done() for f in futures):
-                if STOPPING.is_set():
-                    client.cancel(futures)
-                    raise Stopped(signal.SIGINT)
-                time.sleep(0.05)
+            wait(futures)
             # Re-raises a failed chunk's error here.
             return [f.result() for f in futures]
         except (FuturesCancelledError, CommClosedError, TimeoutError) as exc:
