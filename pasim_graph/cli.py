@@ -97,7 +97,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise UserError(str(exc)) from None
     options = RunOptions(
         seed=args.seed,
-        chunk_beams=args.chunk,
+        chunk_beams=args.chunk or 8,
         save_iq=args.save_iq,
         fields=_fields(args.outputs, graph),
     )
@@ -120,7 +120,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             workers=args.workers,
             scheduler=args.scheduler,
             progress=args.progress or sys.stderr.isatty(),
+            chunk_auto=args.chunk is None,
         )
+        if args.resume:
+            executor.adopt_chunking(out)
         n = sum(s.plan.beam_count for s in executor.sweeps)
         sweeps = f" in {len(executor.sweeps)} sweeps" if len(executor.sweeps) > 1 else ""
         print(
@@ -285,9 +288,9 @@ def parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     run.add_argument(
         "--chunk",
         type=_positive("--chunk"),
-        default=8,
         metavar="BEAMS",
-        help="beams per chunk, >= 1 (default 8; does not change the results)",
+        help="beams per chunk, >= 1 (default: at most 8, fewer when that balances the "
+        "workers better; a resumed store keeps its own; does not change the results)",
     )
     run.add_argument("--save-iq", action="store_true", help="also store the H and V I/Q cubes")
     run.add_argument(

@@ -17,7 +17,9 @@ from __future__ import annotations
 import contextlib
 import errno
 import json
+import math
 import os
+import signal
 import sys
 import time
 from collections.abc import Callable
@@ -33,7 +35,7 @@ import xarray as xr
 from .block import Block
 from .executor import LocalExecutor, RunOptions, chunks, merge_products
 from .graph import Graph
-from .interrupt import STOPPING
+from .interrupt import STOPPING, Stopped
 from .resources import (
     DiskFullError,
     Probe,
@@ -88,6 +90,33 @@ class RunReport:
 LOCAL_SCHEDULERS = ("threads", "sync")
 
 
+#: The most beams a chunk is given when the run does not say (``--chunk``): the size whose
+#: memory docs/performance.md measures.
+MOST_BEAMS = 8
+
+
+def choose_chunk(n_beams: int, slots: int, most: int = MOST_BEAMS, overhead: float = 1.0) -> int:
+    """Beams per chunk for a run of ``n_beams`` on ``slots`` chunks at once (workers).
+
+    The chunk, at most ``most`` beams, whose chunks, handed in scan order to whichever slot is
+    free first, end soonest, each costing its beams plus a task's fixed cost (``overhead``, in
+    beams: writing the region and its flag, the scheduler; about one beam of the generic
+    radar, from the task record). Ties go to the larger chunk (fewer tasks, fewer files).
+    180 beams on 16 workers: 30 chunks of 6 end after 14 beams' time, 23 chunks of 8 after 18.
+    """
+    import heapq
+
+    slots = max(1, int(slots))
+    best, cost = most, math.inf
+    for size in range(max(1, min(most, n_beams)), 0, -1):
+        free = [0.0] * min(slots, math.ceil(n_beams / size))
+        for start in range(0, n_beams, size):
+            heapq.heappush(free, heapq.heappop(free) + min(size, n_beams - start) + overhead)
+        if max(free) < cost - 1e-9:
+            best, cost = size, max(free)
+    return best
+
+
 def chunk_key(run: str, index: int) -> str:
     """The Dask task key of one chunk: the same for the same run and chunk, every time."""
     return f"pasim-chunk-{run}-{index}"
@@ -126,8 +155,46 @@ class SchedulerError(RuntimeError):
 
 
 def _warm_up(classes: list[type[Block]]) -> None:
+    """A worker's first-use costs, paid when it starts (while the client reads the inputs)
+    instead of in its first chunk: the blocks' lazy imports, and the engine's own."""
     for cls in classes:
         cls.warm_up()
+    warm_engine()
+
+
+def warm_engine() -> None:
+    """Pay the first use of what every chunk task uses: xarray's look-up of the duck-array
+    libraries (it imports pint, sparse, cupy... at the first index it builds: 0.5-1 s of CPU,
+    measured in a worker's first chunk) and the store's write path (xarray's zarr backend, the
+    codecs), on a throwaway store in a temporary folder."""
+    import tempfile
+
+    from .store import encoding
+
+    ds = xr.Dataset(
+        {"v": (("azimuth", "range"), np.zeros((2, 3), np.float32))},
+        coords={"azimuth": np.arange(2.0), "range": np.arange(3.0)},
+    )
+    ds = xr.merge([ds, ds.rename({"v": "w"})], compat="override", join="override")
+    with tempfile.TemporaryDirectory(prefix="pasim-warm-") as tmp:
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ds.to_zarr(tmp, mode="w", encoding={"v": encoding(np.dtype(np.float32))})
+            ds[["v"]].drop_vars(["azimuth", "range"]).to_zarr(
+                tmp, region={"azimuth": slice(0, 2)}, consolidated=False
+            )
+
+
+def _worker_name() -> str:
+    """Where a task ran: host, process and (under dask's threads) thread."""
+    import socket
+    import threading
+
+    thread = threading.current_thread()
+    where = f"{socket.gethostname()}:{os.getpid()}"
+    return where if thread is threading.main_thread() else f"{where}/{thread.name}"
 
 
 def _run_and_write(
@@ -138,16 +205,125 @@ def _run_and_write(
     path: str,
     attrs: dict[str, Any],
     group: str = "sweep_0",
-) -> int:
+) -> dict[str, Any] | None:
     """One task: run the graph on a chunk of one sweep's beams and write its region of that
-    sweep's group (on a worker); ``index`` numbers the chunk among all the run's chunks."""
+    sweep's group (on a worker); ``index`` numbers the chunk among all the run's chunks.
+
+    Returns the task's record (when it ran, where, its CPU time and the bytes it wrote), or
+    None when the run was stopped before it wrote.
+    """
     if STOPPING.is_set():
-        return -1
+        return None
+    start, cpu = time.time(), time.thread_time()
     _, sweep = split_volume(merge_products(executor.run_chunk(static, beams)), attrs)
+    computed = time.time()
     if STOPPING.is_set():
-        return -1  # the run was stopped while this chunk ran: it writes nothing more
+        return None  # the run was stopped while this chunk ran: it writes nothing more
     write_region(path, sweep, int(beams[0]), index, group)
-    return index
+    beam_dim = beam_dimension(sweep)
+    return {
+        "kind": "chunk",
+        "index": index,
+        "group": group,
+        "beams": [int(beams[0]), int(beams[-1]) + 1],
+        "start": start,
+        "computed": computed,
+        "stop": time.time(),
+        "cpu_s": time.thread_time() - cpu,
+        "worker": _worker_name(),
+        "bytes": int(sum(v.nbytes for v in sweep.data_vars.values() if beam_dim in v.dims)),
+    }
+
+
+#: Root attribute of a store: the record of every run's tasks (JSON, one entry a run, a
+#: resumed store holding one entry for each time it was run).
+TASKS = "pasim_tasks"
+
+#: A chunk task's fields in the record, in order (times in seconds from the run's start).
+TASK_COLUMNS = (
+    "kind",
+    "index",
+    "group",
+    "beams",
+    "start",
+    "computed",
+    "stop",
+    "cpu_s",
+    "worker",
+    "bytes",
+)
+
+
+class TaskRecord:
+    """When each step of a run ran and where: the set-up steps in this process (reading the
+    inputs, the once-per-run blocks, the layout, starting the cluster) and every chunk task
+    on its worker. Kept with the store (root attribute ``pasim_tasks``) by :meth:`write`."""
+
+    def __init__(self, workers: int | None, scheduler: str | None, chunk_beams: int):
+        self.started = time.time()
+        self.head = {
+            "format": "pasim-tasks/1",
+            "started": self.started,
+            "workers": workers,
+            "scheduler": scheduler or "threads",
+            "chunk_beams": chunk_beams,
+            "cores": os.cpu_count(),
+        }
+        self.steps: list[list[Any]] = []
+        self.tasks: list[dict[str, Any]] = []
+
+    def timed(self, kind: str, fn: Callable[..., Any], *args: Any) -> Any:
+        """Call ``fn(*args)`` in this process and record it as a set-up step."""
+        start, cpu = time.time(), time.thread_time()
+        try:
+            return fn(*args)
+        finally:
+            self.steps.append(
+                [kind, self._t(start), self._t(time.time()), round(time.thread_time() - cpu, 4)]
+            )
+
+    def _t(self, t: float) -> float:
+        return round(t - self.started, 4)
+
+    def entry(self) -> dict[str, Any]:
+        rows = []
+        for task in sorted(self.tasks, key=lambda t: t["index"]):
+            row = dict(task)
+            for k in ("start", "computed", "stop"):
+                row[k] = self._t(row[k])
+            row["cpu_s"] = round(row["cpu_s"], 4)
+            rows.append([row[c] for c in TASK_COLUMNS])
+        return {
+            **self.head,
+            "stopped": self._t(time.time()),
+            "steps": self.steps,
+            "step_columns": ["kind", "start", "stop", "cpu_s"],
+            "task_columns": list(TASK_COLUMNS),
+            "tasks": rows,
+        }
+
+    def write(self, path: str | Path) -> None:
+        """Append this run's entry to the store's record (before its completion marker)."""
+        import zarr
+
+        root = zarr.open_group(str(path), mode="r+")
+        try:
+            runs = json.loads(str(root.attrs.get(TASKS, "[]")))
+        except ValueError:
+            runs = []
+        runs.append(self.entry())
+        root.attrs[TASKS] = json.dumps(runs, separators=(",", ":"))
+
+
+def read_tasks(path: str | Path) -> list[dict[str, Any]]:
+    """A store's task record: one entry a run, each task a dict of :data:`TASK_COLUMNS`."""
+    import zarr
+
+    runs = json.loads(str(zarr.open_group(str(path), mode="r").attrs.get(TASKS, "[]")))
+    for run in runs:
+        run["tasks"] = [dict(zip(run["task_columns"], row, strict=True)) for row in run["tasks"]]
+        run["steps"] = [dict(zip(run["step_columns"], row, strict=True)) for row in run["steps"]]
+    return list(runs)
 
 
 class DaskExecutor:
@@ -177,6 +353,7 @@ class DaskExecutor:
         workers: int | None = None,
         scheduler: str | None = None,
         progress: bool = False,
+        chunk_auto: bool = False,
     ):
         self.graph = graph
         self.options = options or RunOptions()
@@ -185,6 +362,13 @@ class DaskExecutor:
         self.sweeps = sweep_executors(graph, self.options)
         self.local = self.sweeps[0]
         n_beams = max(s.plan.beam_count for s in self.sweeps)
+        #: The chunk size was chosen here (``choose_chunk``), not asked for: a resumed store
+        #: keeps the chunking it was begun with.
+        self.chunk_auto = chunk_auto
+        if chunk_auto:
+            total = sum(s.plan.beam_count for s in self.sweeps)
+            slots = chunks_at_once(workers, scheduler, LOCAL_SCHEDULERS) or 1
+            self._set_chunk(choose_chunk(total, slots))
         if self.options.chunk_beams > n_beams:
             # One chunk holds the whole scan: a larger chunk changes nothing but the store's
             # chunk shape, which zarr and dask cannot make of an --chunk of 2**64.
@@ -194,6 +378,22 @@ class DaskExecutor:
         self.workers, self.scheduler, self.progress = workers, scheduler, progress
         self._cluster: Any = None
         self._disk_estimate = 0  # bytes the store will take, once the first beam has shown it
+
+    def _set_chunk(self, chunk_beams: int) -> None:
+        self.options = replace(self.options, chunk_beams=chunk_beams)
+        for sweep in self.sweeps:
+            sweep.options = self.options
+
+    def adopt_chunking(self, path: Path) -> None:
+        """With a chunk size chosen here, resume a store in the chunking it was begun with."""
+        from .store import is_store
+
+        if not (self.chunk_auto and path.is_dir() and is_store(path)):
+            return
+        state = run_state(path)
+        stored = state[0].get("chunk_beams") if state is not None else None
+        if isinstance(stored, int) and stored >= 1:
+            self._set_chunk(stored)
 
     def run(
         self,
@@ -212,6 +412,8 @@ class DaskExecutor:
         run ends. ``command`` is recorded in the lock, so a refused run can say who holds it.
         """
         path = Path(path)
+        if resume:
+            self.adopt_chunking(path)
         inputs = input_digests(self.graph)
         key = run_key(self.graph, self.options, inputs)
         # Every chunk of every sweep, numbered in scan order: (sweep, beams).
@@ -307,17 +509,20 @@ class DaskExecutor:
         }
 
         t0 = time.perf_counter()
+        record = TaskRecord(self.workers, self.scheduler, self.options.chunk_beams)
         # A cluster takes seconds to start; it starts while the inputs are read.
         pool = ThreadPoolExecutor(1)
         distributed = self.workers or self.scheduler not in (None, *LOCAL_SCHEDULERS)
-        client = pool.submit(self._connect) if distributed else None
+        client = pool.submit(record.timed, "connect", self._connect) if distributed else None
         on_target = 0.0
         try:
             # The sweeps share their blocks' resources (one dict): read once.
-            self.local.load()
-            static = self.local.run_static()
+            record.timed("load", self.local.load)
+            static = record.timed("static", self.local.run_static)
             if state is None:
-                on_target = self._lay_out(path, lock, static, attrs, len(starts))
+                on_target = record.timed(
+                    "layout", self._lay_out, path, lock, static, attrs, len(starts)
+                )
             elif missing:
                 redo = self._lay_out_again(path, static, attrs, missing)
                 done[[i for i, (k, _) in enumerate(starts) if sweep_group(k) in redo]] = False
@@ -327,14 +532,22 @@ class DaskExecutor:
                 plan = sweep.plan
                 plan.resources = {n: r for n, r in plan.resources.items() if n in plan.per_chunk}
             t1 = time.perf_counter()
+            if STOPPING.is_set():
+                # A run in another thread than the one signals stop (a study's runs at once).
+                raise Stopped(signal.SIGINT)
             keys = {i: chunk_key(key, i) for i in todo}
             if client is not None:
-                self._compute_distributed(
+                tasks = self._compute_distributed(
                     client.result(), todo, keys, starts, static, str(path), attrs
                 )
             else:
-                self._compute_local(todo, keys, starts, static, str(path), attrs)
+                tasks = self._compute_local(todo, keys, starts, static, str(path), attrs)
             t2 = time.perf_counter()
+            if STOPPING.is_set() or any(t is None for t in tasks):
+                # Stopped in another thread than the one signals stop: the chunks that saw the
+                # stop wrote nothing, and the store must not be marked complete.
+                raise Stopped(signal.SIGINT)
+            record.tasks += [t for t in tasks if t is not None]
         finally:
             if client is not None:
                 # The cluster may have failed to start; then there is nothing to close.
@@ -344,6 +557,7 @@ class DaskExecutor:
                 if self._cluster is not None:
                     self._cluster.close()
             pool.shutdown()
+        record.write(path)
         mark_complete(path)
         return RunReport(
             len(starts), len(todo), n_beams, t1 - t0, t2 - t1, len(self.sweeps), on_target
@@ -438,7 +652,7 @@ class DaskExecutor:
         static: dict,
         path: str,
         attrs: dict[str, Any],
-    ) -> None:
+    ) -> list[dict[str, Any] | None]:
         import dask
         import dask.local
         import dask.threaded
@@ -472,9 +686,8 @@ class DaskExecutor:
                 # The schedulers' functions, not their names: a name makes dask import
                 # distributed to look for a client (half a second of every local run).
                 if pool is None:
-                    dask.compute(*tasks, scheduler=dask.local.get_sync)
-                else:
-                    dask.compute(*tasks, scheduler=dask.threaded.get, pool=pool)
+                    return list(dask.compute(*tasks, scheduler=dask.local.get_sync))
+                return list(dask.compute(*tasks, scheduler=dask.threaded.get, pool=pool))
         finally:
             if pool is not None:
                 pool.shutdown(wait=True, cancel_futures=True)
@@ -522,11 +735,11 @@ class DaskExecutor:
         static: dict,
         path: str,
         attrs: dict[str, Any],
-    ) -> None:
+    ) -> list[dict[str, Any] | None]:
         from distributed import progress, wait
 
         if not todo:
-            return
+            return []
         used = sorted({starts[i][0] for i in todo})
         local = {k: client.scatter(self.sweeps[k], broadcast=True) for k in used}
         shared = client.scatter(static, broadcast=True)
@@ -554,8 +767,8 @@ class DaskExecutor:
                 with contextlib.redirect_stdout(sys.stderr):
                     progress(futures)
             wait(futures)
-            for f in futures:
-                f.result()  # re-raise a failed chunk's error here
+            # Re-raises a failed chunk's error here.
+            return [f.result() for f in futures]
         except (FuturesCancelledError, CommClosedError, TimeoutError) as exc:
             # The scheduler went away (or the client lost it): the chunks written so far are
             # kept and flagged; the rest are run by --resume, on this cluster or another.

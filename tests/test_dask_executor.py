@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from pasim_graph.dask_executor import choose_chunk, read_tasks
 from pasim_graph.store import run_state
 
 from .conftest import GRAPHS, ROOT, run_cli
@@ -68,6 +69,31 @@ def test_chunk_size_and_workers_do_not_change_the_numbers(tmp_path):
     assert_same_numbers(a, b)
     # The store is chunked along azimuth as asked.
     assert b["DBZH"].encoding["chunks"][0] == 8
+    # The executor kept a record of the run's tasks with the store: every chunk, once, on
+    # one of the two workers, with its times and bytes; the set-up steps in this process.
+    (record,) = read_tasks(two)
+    assert record["workers"] == 2 and record["chunk_beams"] == 8
+    tasks = record["tasks"]
+    assert sorted(t["index"] for t in tasks) == list(range(4))
+    assert len({t["worker"] for t in tasks}) <= 2
+    for t in tasks:
+        assert t["kind"] == "chunk" and 0 <= t["start"] <= t["computed"] <= t["stop"]
+        assert t["bytes"] > 0 and t["cpu_s"] > 0
+    assert {"load", "static", "layout", "connect"} <= {s["kind"] for s in record["steps"]}
+    # A store one beam at a time on one thread records its 30 tasks.
+    assert len(read_tasks(one)[0]["tasks"]) == 30
+
+
+def test_chunk_chosen_from_the_workers():
+    """Without --chunk: at most 8 beams, the fewest rounds of tasks over the workers."""
+    assert choose_chunk(360, 1) == 8
+    assert choose_chunk(360, 2) == 8
+    assert choose_chunk(180, 16) == 6  # 30 tasks in 2 rounds of 7, not 23 in 2 of 9
+    assert choose_chunk(3, 16) == 1
+    assert choose_chunk(1, 4) == 1
+    for n in range(1, 200, 7):
+        for w in (1, 2, 3, 16, 64):
+            assert 1 <= choose_chunk(n, w) <= 8
 
 
 def test_killed_run_resumes_to_the_same_numbers(tmp_path):
@@ -101,8 +127,10 @@ def test_killed_run_resumes_to_the_same_numbers(tmp_path):
     res = run_cli(*args, "--out", str(killed))
     assert res.returncode == 2 and "--resume" in res.stderr
 
-    res = run_cli(*args, "--out", str(killed), "--resume")
+    # Resumed without --chunk: the store keeps the chunking it was begun with.
+    res = run_cli(*args[:-2], "--out", str(killed), "--resume")
     assert res.returncode == 0, res.stderr
+    assert "chunks of 2" in res.stderr
     full = tmp_path / "full.zarr"
     res = run_cli(*args, "--out", str(full))
     assert res.returncode == 0, res.stderr

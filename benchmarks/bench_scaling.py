@@ -1,0 +1,335 @@
+"""How `pasim run` and `pasim study` scale over workers on this machine (run by hand, not in CI).
+
+    python benchmarks/bench_scaling.py [--sector 0:360] [--workers 1,2] [--repeat 2]
+        [--study graphs/paper_study.yaml --study-sector 240:270] [--baseline-pythonpath DIR]
+
+For each worker count (alternating, ``--repeat`` rounds), runs the graph in a fresh `pasim run
+--workers W` process and reads back the store's task record (``pasim_tasks``: every chunk
+task's start, stop, worker and bytes, and the set-up steps). With ``--baseline-pythonpath``
+the same command also runs under another build of the code (a folder holding ``pasim_graph``
+and ``pasim_blocks``), back to back with this one, for paired ratios. Then runs the study
+(its sector cut to ``--study-sector`` to keep it short) at each worker count and measures the
+share of the cores its processes kept busy: CPU seconds of all its processes / (wall x W).
+
+The makespan model, fitted on the one-worker run's record:
+
+- each beam's cost (its chunk's compute time spread over its beams, in scan order), a task's
+  fixed cost (writing its region and flag: the median write time) and the scheduler's cost
+  per task (the median gap between one task's end and the next one's start on a worker);
+- the run's fixed cost: its whole wall time less its chunk phase (imports, inputs, layout);
+- the chunk phase at W workers: the chunks that ``choose_chunk`` gives for W, handed in scan
+  order to whichever worker is free first (what dask does with equal priorities).
+
+The model is checked against every measurement made here (predicted and measured wall time,
+the 2-worker one within 15 %), then predicts 16, 64, 256 and 1,000 workers. The load average
+is recorded with every measurement: on a shared machine the ratios are the part to quote.
+Prints JSON lines (and appends them to ``--out``) and a summary.
+"""
+
+from __future__ import annotations
+
+import argparse
+import heapq
+import itertools
+import json
+import os
+import re
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from pasim_graph.dask_executor import choose_chunk, read_tasks  # noqa: E402
+
+PHASES = re.compile(r"set-up ([\d.]+) s, (\d+) of (\d+) chunks in ([\d.]+) s")
+
+
+def timed(cmd: list[str], env: dict[str, str]) -> dict[str, Any]:
+    """Run ``cmd``; its wall time, the CPU seconds of it and all its descendants, the load."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    load = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=ROOT)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed:\n{proc.stderr[-3000:]}")
+    return {
+        "wall_s": wall,
+        "cpu_s": cpu,
+        "load_before": load,
+        "load_after": os.getloadavg()[0],
+        "stderr": proc.stderr,
+    }
+
+
+def environment(pythonpath: str | None) -> dict[str, str]:
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    if pythonpath:
+        env["PYTHONPATH"] = pythonpath
+    return env
+
+
+def graph_run(args: argparse.Namespace, workers: int, build: str, pythonpath: str | None) -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "run.zarr"
+        cmd = [sys.executable, "-m", "pasim_graph", "run", args.graph, "--sector", args.sector]
+        cmd += ["--workers", str(workers), "--out", str(out), *args.run_args]
+        m = timed(cmd, environment(pythonpath))
+        phases = PHASES.search(m.pop("stderr"))
+        row: dict[str, Any] = {"case": "graph", "build": build, "workers": workers, **m}
+        if phases:
+            row["setup_s"], row["chunks_s"] = float(phases[1]), float(phases[4])
+            row["chunks"] = int(phases[3])
+        row["digest"] = digest(out)
+        try:
+            row["record"] = read_tasks(out)[-1]
+        except Exception:  # a build that keeps no record
+            row["record"] = None
+    return row
+
+
+def digest(store: Path) -> str:
+    """One hash of every array's values in the store (not its attributes, which hold times):
+    equal digests, bit-identical stored numbers."""
+    import hashlib
+
+    import numpy as np
+    import zarr
+
+    h = hashlib.sha256()
+    root = zarr.open_group(str(store), mode="r")
+    for name, array in sorted(root.arrays(), key=lambda a: a[0]):
+        if name == "pasim_chunk_done":  # one flag a chunk: as many as the chunking makes
+            continue
+        h.update(name.encode())
+        h.update(np.ascontiguousarray(array[...]).tobytes())
+    for gname, group in sorted(root.groups(), key=lambda g: g[0]):
+        for name, array in sorted(group.arrays(), key=lambda a: a[0]):
+            h.update(f"{gname}/{name}".encode())
+            h.update(np.ascontiguousarray(array[...]).tobytes())
+    return h.hexdigest()[:16]
+
+
+def study_run(args: argparse.Namespace, workers: int, build: str, pythonpath: str | None) -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        study = Path(tmp) / "study.yaml"
+        text = Path(args.study).read_text()
+        # The study's own sector, cut short; its graphs are found next to the original file.
+        text = re.sub(r'sector: "[^"]*"', f'sector: "{args.study_sector}"', text)
+        text = re.sub(r"seeds: \[[^\]]*\]", "seeds: [0]", text)
+        text = re.sub(
+            r"graph: (\S+?)\}",
+            lambda g: f"graph: {Path(args.study).parent.resolve() / g[1]}}}",
+            text,
+        )
+        study.write_text(text)
+        out = Path(tmp) / "out"
+        cmd = [sys.executable, "-m", "pasim_graph", "study", str(study), "--out", str(out)]
+        cmd += ["--workers", str(workers)]
+        m = timed(cmd, environment(pythonpath))
+        m.pop("stderr")
+        records = []
+        for store in sorted((out / "runs").rglob("*.zarr")):
+            try:
+                records.append(read_tasks(store)[-1])
+            except Exception:
+                pass
+    busy = m["cpu_s"] / (m["wall_s"] * workers)
+    return {
+        "case": "study",
+        "build": build,
+        "workers": workers,
+        **m,
+        "busy": busy,
+        "records": records,
+    }
+
+
+def beam_costs(record: dict) -> tuple[list[float], float, float]:
+    """Per-beam compute cost in scan order, a task's write cost, the scheduler's gap."""
+    tasks = sorted(record["tasks"], key=lambda t: t["index"])
+    costs: list[float] = []
+    for t in tasks:
+        lo, hi = t["beams"]
+        costs += [(t["computed"] - t["start"]) / (hi - lo)] * (hi - lo)
+    write = statistics.median(t["stop"] - t["computed"] for t in tasks)
+    gaps = []
+    by_worker: dict[str, list[dict]] = {}
+    for t in tasks:
+        by_worker.setdefault(t["worker"], []).append(t)
+    for ts in by_worker.values():
+        ts.sort(key=lambda t: t["start"])
+        gaps += [b["start"] - a["stop"] for a, b in itertools.pairwise(ts)]
+    gap = statistics.median(gaps) if gaps else 0.0
+    return costs, write, max(gap, 0.0)
+
+
+def makespan(costs: list[float], write: float, gap: float, workers: int, chunk: int) -> float:
+    """Chunks handed in scan order to whichever worker is free first."""
+    free = [0.0] * workers
+    for start in range(0, len(costs), chunk):
+        t = heapq.heappop(free)
+        heapq.heappush(free, t + sum(costs[start : start + chunk]) + write + gap)
+    return max(free)
+
+
+def graph_model(row: dict) -> dict:
+    record = row["record"]
+    costs, write, gap = beam_costs(record)
+    chunk = record["chunk_beams"]
+    phase = makespan(costs, write, gap, 1, chunk)
+    return {
+        "beams": len(costs),
+        "beam_s": statistics.median(costs),
+        "write_s": write,
+        "gap_s": gap,
+        "fixed_s": row["wall_s"] - phase,
+        "costs": costs,
+    }
+
+
+def predict(model: dict, workers: int) -> dict:
+    chunk = choose_chunk(model["beams"], workers)
+    phase = makespan(model["costs"], model["write_s"], model["gap_s"], workers, chunk)
+    return {
+        "workers": workers,
+        "chunk": chunk,
+        "chunks_s": phase,
+        "wall_s": model["fixed_s"] + phase,
+    }
+
+
+def study_model(row: dict) -> dict:
+    """The study at one worker: its work (every run's set-up steps and chunk tasks) and the
+    rest (start-up, pattern and hardware measurements, reports)."""
+    work = 0.0
+    for r in row["records"]:
+        work += sum(s["stop"] - s["start"] for s in r["steps"] if s["kind"] != "connect")
+        work += sum(t["stop"] - t["start"] for t in r["tasks"])
+    return {"work_s": work, "rest_s": max(row["wall_s"] - work, 0.0)}
+
+
+def predict_study(model: dict, workers: int) -> float:
+    """Runs overlapped: the work spread over the workers, the rest one after another."""
+    return model["rest_s"] + model["work_s"] / workers
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--graph", default=str(ROOT / "graphs" / "generic_radar.yaml"))
+    ap.add_argument("--sector", default="0:360")
+    ap.add_argument("--run-args", nargs="*", default=[], help="more `pasim run` options")
+    ap.add_argument("--workers", default="1,2", help="worker counts (comma separated)")
+    ap.add_argument("--repeat", type=int, default=2)
+    ap.add_argument("--study", default=str(ROOT / "graphs" / "paper_study.yaml"))
+    ap.add_argument("--study-sector", default="240:270")
+    ap.add_argument("--no-study", action="store_true")
+    ap.add_argument("--no-graph", action="store_true")
+    ap.add_argument("--baseline-pythonpath", help="another build to pair every run with")
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_scaling.jsonl"))
+    args = ap.parse_args()
+    counts = [int(w) for w in args.workers.split(",")]
+    builds = [("new", None)] + (
+        [("baseline", args.baseline_pythonpath)] if args.baseline_pythonpath else []
+    )
+    rows: list[dict] = []
+
+    def emit(row: dict) -> None:
+        light = {k: v for k, v in row.items() if k not in ("record", "records")}
+        light["date"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+        if row.get("record"):
+            light["tasks"] = len(row["record"]["tasks"])
+        print(json.dumps(light), flush=True)
+        with open(args.out, "a") as f:
+            kept = {k: row[k] for k in ("record", "records") if k in row}
+            f.write(json.dumps({**light, **kept}) + "\n")
+        rows.append(row)
+
+    for rnd in range(args.repeat):
+        order = counts if rnd % 2 == 0 else counts[::-1]
+        for w in order:
+            for name, path in builds if rnd % 2 == 0 else builds[::-1]:
+                if not args.no_graph:
+                    emit(graph_run(args, w, name, path))
+        if not args.no_study:
+            for w in order:
+                for name, path in builds if rnd % 2 == 0 else builds[::-1]:
+                    emit(study_run(args, w, name, path))
+
+    def med(case: str, build: str, w: int, key: str) -> float | None:
+        vals = [
+            r[key]
+            for r in rows
+            if (r["case"], r["build"], r["workers"]) == (case, build, w) and r.get(key) is not None
+        ]
+        return statistics.median(vals) if vals else None
+
+    summary: dict[str, Any] = {"summary": True, "machine_cores": os.cpu_count()}
+    for name, _ in builds:
+        for w in counts:
+            summary[f"graph_{name}_w{w}_chunks_s"] = med("graph", name, w, "chunks_s")
+            summary[f"graph_{name}_w{w}_wall_s"] = med("graph", name, w, "wall_s")
+            summary[f"study_{name}_w{w}_wall_s"] = med("study", name, w, "wall_s")
+            summary[f"study_{name}_w{w}_busy"] = med("study", name, w, "busy")
+    ones = [
+        r
+        for r in rows
+        if r["case"] == "graph" and r["build"] == "new" and r["workers"] == 1 and r.get("record")
+    ]
+    checks = []
+    if ones:
+        model = graph_model(ones[0])
+        summary["model"] = {k: v for k, v in model.items() if k != "costs"}
+        for r in rows:
+            if r["case"] == "graph" and r["build"] == "new":
+                p = predict(model, r["workers"])
+                checks.append(
+                    {
+                        "case": "graph",
+                        "workers": r["workers"],
+                        "measured_s": r["wall_s"],
+                        "predicted_s": p["wall_s"],
+                        "error": p["wall_s"] / r["wall_s"] - 1,
+                    }
+                )
+        summary["predicted"] = [predict(model, w) for w in (1, 2, 16, 64, 256, 1000)]
+    sones = [r for r in rows if r["case"] == "study" and r["build"] == "new" and r["workers"] == 1]
+    if sones:
+        smodel = study_model(sones[0])
+        summary["study_model"] = smodel
+        for r in rows:
+            if r["case"] == "study" and r["build"] == "new":
+                ps = predict_study(smodel, r["workers"])
+                checks.append(
+                    {
+                        "case": "study",
+                        "workers": r["workers"],
+                        "measured_s": r["wall_s"],
+                        "predicted_s": ps,
+                        "error": ps / r["wall_s"] - 1,
+                    }
+                )
+        summary["study_predicted"] = {w: predict_study(smodel, w) for w in (16, 64, 256, 1000)}
+    summary["checks"] = checks
+    digests = {r["digest"] for r in rows if r["case"] == "graph"}
+    summary["graph_stores_identical"] = len(digests) == 1 if digests else None
+    two = [c for c in checks if c["workers"] == 2]
+    summary["two_worker_within_15pct"] = bool(two) and all(abs(c["error"]) <= 0.15 for c in two)
+    print(json.dumps(summary, indent=1))
+    with open(args.out, "a") as f:
+        f.write(json.dumps(summary) + "\n")
+    return 0 if summary["two_worker_within_15pct"] or not two else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
