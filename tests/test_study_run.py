@@ -258,3 +258,28 @@ def test_a_hand_edited_manifest_is_one_line(tmp_path, capsys, study, edit, words
         assert len(lines) == 1 and "Traceback" not in err, err
         assert "pasim-study.json" in lines[0] and words in lines[0], lines[0]
         assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
+def test_a_run_store_damaged_on_disk_is_named_not_a_traceback(tmp_path, capsys, study):
+    """A kept run's store whose chunk bytes were damaged after it finished ended the study's
+    rescoring in a traceback (DamagedStoreError was not caught): now one line naming the
+    store, or the run written again; never a traceback."""
+    import shutil
+
+    copy = tmp_path / "out"
+    shutil.copytree(study, copy)
+    store = sorted(copy.glob("runs/*/*/*/estimate-seed*.zarr"))[0]
+    chunk = sorted((store / "sweep_0" / "error_DBZH" / "c").rglob("*"))
+    chunk = [c for c in chunk if c.is_file()][0]
+    raw = bytearray(chunk.read_bytes())
+    raw[len(raw) // 2] ^= 0xFF
+    chunk.write_bytes(bytes(raw))
+    code = main(["study", str(STUDY), "--out", str(copy), "--resume"])
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    if code == 2:
+        errors = [line for line in err.splitlines() if line.startswith("error:")]
+        assert len(errors) == 1 and store.name in errors[0], err
+    else:
+        assert code == 0, err
+        assert scores(copy) == scores(study)  # the damaged run was written again

@@ -72,6 +72,7 @@ class StudyCommand:
         StudyProblems = _problems_class()
         from pasim_graph.interrupt import StopMessage, Stopped, stop_on_signals
         from pasim_graph.store import StoreError, StoreExistsError
+        from pasim_graph.store_check import NotAStoreError
 
         from ..study.integrity import study_inputs
         from ..study.model import read_study
@@ -150,9 +151,20 @@ class StudyCommand:
             raise UserError(f"{args.study}: {exc}") from None
         except StudyError as exc:
             raise UserError(str(exc)) from None
-        except (StoreError, StoreExistsError, ResumeError, ResourceError, SchedulerError) as exc:
+        except (
+            StoreError,
+            StoreExistsError,
+            NotAStoreError,
+            ResumeError,
+            ResourceError,
+            SchedulerError,
+        ) as exc:
             raise UserError(str(exc)) from None
-        rescore()
+        try:
+            rescore()
+        except (StudyError, NotAStoreError) as exc:
+            # A run's store damaged on disk since it was kept: named, one line.
+            raise UserError(str(exc)) from None
         print(
             f"wrote {out / 'scores.json'} and scores.csv: {report['computed']} runs computed, "
             f"{report['kept']} kept, {report['seconds']:.1f} s",
