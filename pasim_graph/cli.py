@@ -524,12 +524,21 @@ def _quiet_abandoned_io() -> None:
     logging.getLogger("asyncio").disabled = True
 
 
+#: The notes and warnings already printed by this process: a study runs many graphs, each of
+#: which may say the same thing (and dask or xarray reset the warnings registry between runs,
+#: so the "default" filter alone printed a study's note once per run).
+_SHOWN: set[str] = set()
+
+
 def _show_warning(
     message: Warning | str, category: type[Warning], *args: Any, **kwargs: Any
 ) -> None:
-    # Notes and plugin warnings are for users: one line each, no source location.
+    # Notes and plugin warnings are for users: one line each, no source location, once.
     label = "note" if issubclass(category, RunNote) else "warning"
-    print(f"{label}: {message}", file=sys.stderr)
+    line = f"{label}: {message}"
+    if line not in _SHOWN:
+        _SHOWN.add(line)
+        print(line, file=sys.stderr)
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:
@@ -546,6 +555,7 @@ def _join_negative_values(argv: list[str]) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv))
+    _SHOWN.clear()  # each note once per command
     with warnings.catch_warnings():
         warnings.simplefilter("default", registry.PluginWarning)
         warnings.showwarning = _show_warning

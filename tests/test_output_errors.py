@@ -129,3 +129,27 @@ def test_the_progress_bar_goes_to_standard_error(tmp_path):
     assert "Completed" in res.stderr, res.stderr
     assert "Completed" not in res.stdout and "[#" not in res.stdout, res.stdout
     assert res.stdout.lstrip().startswith("moment"), res.stdout
+
+
+def test_a_note_said_by_every_run_of_a_study_is_printed_once(capsys, monkeypatch):
+    """A study printed the same note once per run (9 times for 9 runs): the warnings registry
+    that the "default" filter relies on is reset between runs. Each note (and warning) is
+    now printed once per command, whatever resets the registry; a new command says it again."""
+    import warnings
+
+    from pasim_graph import RunNote, cli
+
+    def fake(args) -> int:
+        for _ in range(9):  # nine runs, each saying the same, each resetting the registry
+            warnings.resetwarnings()
+            warnings.simplefilter("default", RunNote)
+            warnings.warn("the truth has no Doppler moments", RunNote, stacklevel=1)
+        warnings.warn("another note", RunNote, stacklevel=1)
+        return 0
+
+    monkeypatch.setattr(cli, "cmd_blocks", fake)
+    for _ in range(2):
+        assert cli.main(["blocks"]) == 0
+        err = capsys.readouterr().err
+        assert err.count("note: the truth has no Doppler moments") == 1, err
+        assert err.count("note: another note") == 1, err
