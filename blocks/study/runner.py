@@ -185,6 +185,7 @@ def execute(
     from pasim_graph import __version__
     from pasim_graph.dask_executor import DaskExecutor
     from pasim_graph.executor import RunOptions
+    from pasim_graph.provenance import provenance
 
     cluster = None
     if workers:
@@ -238,6 +239,7 @@ def execute(
                 "study_case": run.case,
                 "study_point": run.point_name,
                 "study_run": run.kind,
+                **provenance(run.system, f"pasim study {study.file}"),
             }
             t0 = time.perf_counter()
             executor = DaskExecutor(
