@@ -254,7 +254,12 @@ def cmd_score(args: argparse.Namespace) -> int:
     if args.json:
         # One sweep: its scores by moment, as always; a volume: each sweep's and the pooled.
         one = len(volume["sweeps"]) == 1
-        print(json.dumps(json_safe(volume["scores"] if one else volume), indent=2))
+        if one:
+            # A moment the truth does not hold is listed as such, never left out silently.
+            missing = {n: {"no_truth": True, "count": 0} for n in volume["no_truth"]}
+            print(json.dumps(json_safe({**volume["scores"], **missing}), indent=2))
+        else:
+            print(json.dumps(json_safe(volume), indent=2))
     else:
         print_volume(volume, sys.stdout)
     return 0
