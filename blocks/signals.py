@@ -122,6 +122,8 @@ BEAMS = PortType(
             "sweep_number": Var("integer", (), "", "sweep index in the volume"),
             "sweep_mode": Var("str", (), "", "CfRadial sweep mode"),
             "sweep_fixed_angle": Var("float64", (), "degrees", "nominal elevation"),
+            "prt_mode": Var("str", (), "", "FM-301 PRT mode: fixed, staggered or dual"),
+            "follow_mode": Var("str", (), "", "FM-301 follow mode (none: a ground radar)"),
             "time_coverage_start": Var("str", (), "", "ISO time of the scan start"),
             "time_coverage_end": Var("str", (), "", "ISO time of the scan end"),
             "volume_number": Var("integer", (), "", "volume index"),

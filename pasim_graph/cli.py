@@ -77,6 +77,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         check_scheduler,
     )
     from .executor import BlockError, RunOptions
+    from .provenance import provenance
     from .scores import print_volume, volume_scores
     from .store import StoreError, StoreExistsError, open_volume
 
@@ -101,6 +102,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         save_iq=args.save_iq,
         fields=_fields(args.outputs, graph),
     )
+    command = " ".join(["pasim", *sys.argv[1:]]) if sys.argv else "pasim run"
     attrs = {
         "title": "PASIM-graph simulated radar volume",
         "Conventions": "Cf/Radial",
@@ -111,6 +113,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         "seed": args.seed,
         "simulated": "true",
         "source": "PASIM-graph simulation",
+        **provenance(Path(args.graph).stem, command),
     }
     t0 = time.perf_counter()
     try:
@@ -137,7 +140,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                 attrs,
                 resume=args.resume,
                 overwrite=args.overwrite,
-                command=" ".join(["pasim", *sys.argv[1:]]) if sys.argv else "pasim run",
+                command=command,
                 log=lambda s: print(s, file=sys.stderr),
             )
     except Stopped as exc:
@@ -254,7 +257,12 @@ def cmd_score(args: argparse.Namespace) -> int:
     if args.json:
         # One sweep: its scores by moment, as always; a volume: each sweep's and the pooled.
         one = len(volume["sweeps"]) == 1
-        print(json.dumps(json_safe(volume["scores"] if one else volume), indent=2))
+        if one:
+            # A moment the truth does not hold is listed as such, never left out silently.
+            missing = {n: {"no_truth": True, "count": 0} for n in volume["no_truth"]}
+            print(json.dumps(json_safe({**volume["scores"], **missing}), indent=2))
+        else:
+            print(json.dumps(json_safe(volume), indent=2))
     else:
         print_volume(volume, sys.stdout)
     return 0

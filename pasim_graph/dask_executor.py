@@ -68,7 +68,7 @@ from .store import (
 )
 from .store_check import missing_arrays, some
 from .store_relay import RelayError, relay_missing
-from .sweeps import sweep_executors, sweep_group
+from .sweeps import sweep_executors, sweep_group, volume_sweeps
 
 __all__ = ["ResourceError", "ResumeError"]  # re-exported: the command line catches them here
 
@@ -461,6 +461,7 @@ class DaskExecutor:
         # read its inputs and passed its checks (lock.replace below).
         state = None if lock.replacing else run_state(path)
         missing: list[str] = []  # arrays the layout lists that are gone: laid out again
+        kept: dict[str, Any] = {}  # the run's history, when its store is laid out again
         if state is not None and not lock.replacing:
             if state[0].get("pasim_run_key") != key:
                 raise ResumeError(resume_mismatch(path, state[0], inputs))
@@ -469,6 +470,8 @@ class DaskExecutor:
                 # Which chunks were done is lost (a finished store's consolidated metadata
                 # still names the flags): every chunk is run again, on a fresh layout.
                 log(f"{path}: {DONE} is missing (the layout lists it); running every chunk")
+                # The run resumed began when the store did: its history stays.
+                kept = {k: state[0][k] for k in ("history",) if k in state[0]}
                 state, missing = None, []
         if lock.replacing:
             pass
@@ -506,6 +509,7 @@ class DaskExecutor:
             "pasim_run_key": key,
             "pasim_inputs": json.dumps(inputs, sort_keys=True),
             "chunk_beams": self.options.chunk_beams,
+            **kept,
         }
 
         t0 = time.perf_counter()
@@ -625,6 +629,7 @@ class DaskExecutor:
         root = roots[0]
         if "time_coverage_end" in roots[-1]:  # the volume ends with its last sweep
             root["time_coverage_end"] = roots[-1]["time_coverage_end"]
+        root = root.assign(volume_sweeps([sweep for sweep, _, _ in layouts]))
         root.attrs[TIME_ON_TARGET] = float(sum(times))
         return layouts, probes, root
 

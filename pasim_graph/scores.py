@@ -95,6 +95,17 @@ def summarize(*sweeps: xr.Dataset) -> dict[str, dict[str, Any]]:
     return out
 
 
+def no_truth(*sweeps: xr.Dataset) -> list[str]:
+    """The moments the ``sweeps`` estimate but their truth does not hold (the scorer names
+    them in its ``scored`` field's ``no_truth``): not scored, never to be read as scored."""
+    out: list[str] = []
+    for sweep in sweeps:
+        for var in sweep.data_vars.values():
+            if var.attrs.get("pasim_role") == "scored":
+                out += [n for n in str(var.attrs.get("no_truth", "")).split() if n not in out]
+    return out
+
+
 def sweep_names(tree: xr.DataTree) -> list[str]:
     """The FM-301 sweep groups of a volume, in order (``sweep_0``, ``sweep_1``, ...)."""
     names = [str(n) for n in tree.children if str(n).startswith("sweep_")]
@@ -113,9 +124,11 @@ def volume_scores(tree: xr.DataTree) -> dict[str, Any]:
             "beams": int(ds.sizes.get(_beam_dim(ds), 0)),
             "time_on_target_s": time_on_target(ds),
             "scores": summarize(ds),
+            "no_truth": no_truth(ds),
         }
     out["time_on_target_s"] = sum(s["time_on_target_s"] for s in out["sweeps"].values())
     out["scores"] = summarize(*sweeps.values())
+    out["no_truth"] = no_truth(*sweeps.values())
     return out
 
 
@@ -129,8 +142,11 @@ def _beam_dim(ds: xr.Dataset) -> str:
     return next((d for d in ("azimuth", "elevation", "time") if d in ds.dims), "")
 
 
-def print_scores(scores: dict[str, dict[str, Any]], stream: Any) -> None:
-    """The score table of one sweep or a volume, with what was not scored and why."""
+def print_scores(
+    scores: dict[str, dict[str, Any]], stream: Any, no_truth: list[str] | None = None
+) -> None:
+    """The score table of one sweep or a volume, with what was not scored and why: a moment
+    of ``no_truth`` has a row that says so."""
     if not scores:
         return
     print(
@@ -143,6 +159,9 @@ def print_scores(scores: dict[str, dict[str, Any]], stream: Any) -> None:
             f"{'yes' if s['pass'] else 'no'}",
             file=stream,
         )
+    for name in no_truth or []:
+        if name not in scores:
+            print(f"{name:8} {'no truth':>9}  (the truth holds no {name}: not scored)", file=stream)
     first = next(iter(scores.values()))
     if first.get("scored"):
         print(f"scored gates: {first['scored']}", file=stream)
@@ -172,7 +191,7 @@ def print_volume(volume: dict[str, Any], stream: Any) -> None:
     time on target follows each."""
     sweeps = volume["sweeps"]
     if len(sweeps) <= 1:
-        print_scores(volume["scores"], stream)
+        print_scores(volume["scores"], stream, volume.get("no_truth"))
         if volume["time_on_target_s"]:
             print(f"time on target: {volume['time_on_target_s']:.3f} s", file=stream)
         return
@@ -184,10 +203,10 @@ def print_volume(volume: dict[str, Any], stream: Any) -> None:
             f"{s['time_on_target_s']:.3f} s)",
             file=stream,
         )
-        print_scores(s["scores"], stream)
+        print_scores(s["scores"], stream, s.get("no_truth"))
         print(file=stream)
     print(
         f"volume ({len(sweeps)} sweeps, time on target {volume['time_on_target_s']:.3f} s)",
         file=stream,
     )
-    print_scores(volume["scores"], stream)
+    print_scores(volume["scores"], stream, volume.get("no_truth"))

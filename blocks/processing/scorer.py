@@ -132,6 +132,11 @@ class NexradScorer(Block):
             "long_name": "gate meets the scoring rule",
             "scored": rule,
         }
+        # Moments estimated that the truth does not hold (a reflectivity-only file, a
+        # single-polarisation truth): not scored, and named so, never silently absent.
+        no_truth = [n for n in REQUIREMENTS if n in est and n not in ref]
+        if no_truth:
+            scored_attrs["no_truth"] = " ".join(no_truth)
         out = xr.Dataset(
             {
                 "SNRH": (

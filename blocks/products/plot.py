@@ -55,9 +55,13 @@ STYLES: dict[str, Style] = {
 
 
 def available(sweep: xr.Dataset, fields: list[str] | None = None) -> tuple[list[str], list[str]]:
-    """The moments that can be drawn, and a note for each asked-for one that cannot."""
+    """The moments that can be drawn, and a note for each asked-for one that cannot or that
+    is drawn without a truth."""
+    from pasim_graph.scores import no_truth
+
     asked = list(fields) if fields else list(MOMENTS)
     drawn, notes = [], []
+    missing = no_truth(sweep)
     for name in asked:
         if name not in STYLES:
             notes.append(f"{name}: not a moment this plot knows ({', '.join(MOMENTS)}); skipped")
@@ -65,7 +69,16 @@ def available(sweep: xr.Dataset, fields: list[str] | None = None) -> tuple[list[
             notes.append(f"{name}: neither {name} nor truth_{name} is in the store; skipped")
         else:
             drawn.append(name)
+            if name in missing:
+                notes.append(f"{name}: the truth holds no {name}; drawn as estimate only, no truth")
     return drawn, notes
+
+
+def lacks_truth(sweep: xr.Dataset, name: str) -> bool:
+    """The run estimated ``name`` but its truth holds none (the scorer names it so)."""
+    from pasim_graph.scores import no_truth
+
+    return name in no_truth(sweep)
 
 
 def _edges(centres: np.ndarray) -> np.ndarray:
@@ -165,11 +178,12 @@ def _panel(ax: Any, fig: Any, sweep: xr.Dataset, var: str, title: str, **kw: Any
 
     x, y = kw.pop("mesh")
     units = kw.pop("units")
+    absent = kw.pop("absent", f"{var}\nnot in the store")
     if var not in sweep:
         ax.text(
             0.5,
             0.5,
-            f"{var}\nnot in the store",
+            absent,
             ha="center",
             va="center",
             transform=ax.transAxes,
@@ -198,13 +212,18 @@ def moment_row(
     vmin, vmax = _limits(sweep, name)
     extent = _extent(sweep, [name], x, y, exact=rhi)
     lim = style.error_limit
-    common = {"mesh": (x, y)}
+    common: dict[str, Any] = {"mesh": (x, y)}
+    # A moment the truth does not hold: its row says so, not an empty truth and error.
+    bare = lacks_truth(sweep, name)
+    if bare:
+        common["absent"] = f"no truth:\nthe truth holds no {name}"
+    mark = " (no truth)" if bare else ""
     _panel(
         axes[0],
         fig,
         sweep,
         f"truth_{name}",
-        f"truth {name}",
+        f"truth {name}{mark}",
         cmap=style.cmap,
         vmin=vmin,
         vmax=vmax,
@@ -216,7 +235,7 @@ def moment_row(
         fig,
         sweep,
         name,
-        f"estimate {name}",
+        f"estimate {name}{mark}",
         cmap=style.cmap,
         vmin=vmin,
         vmax=vmax,
@@ -228,7 +247,7 @@ def moment_row(
         fig,
         sweep,
         f"error_{name}",
-        f"error {name} (estimate - truth)",
+        f"error {name} (no truth: not scored)" if bare else f"error {name} (estimate - truth)",
         cmap=style.error_cmap,
         vmin=-lim,
         vmax=lim,
@@ -263,9 +282,9 @@ def moment_row(
             ax.set_xlabel("km east of the radar")
     if rhi:
         az = float(sweep["sweep_fixed_angle"].values) if "sweep_fixed_angle" in sweep else 0.0
-        axes[0].set_ylabel(f"{name}\nkm above the radar (4/3 earth), azimuth {az:.1f} deg")
+        axes[0].set_ylabel(f"{name}{mark}\nkm above the radar (4/3 earth), azimuth {az:.1f} deg")
     else:
-        axes[0].set_ylabel(f"{name}\nkm north of the radar")
+        axes[0].set_ylabel(f"{name}{mark}\nkm north of the radar")
 
 
 def _figure(rows: int) -> Any:

@@ -46,14 +46,18 @@ def beam_dataset(
     end: np.datetime64,
     site: dict[str, float],
     rate_name: str = "azimuth rate of the scan",
+    prt_mode: str = "fixed",
 ) -> xr.Dataset:
     """The beams of one chunk: per-beam pointing, dwell start, PRT and scan rate, the sweep's
-    FM-301 variables, and the volume metadata the store moves to the root."""
+    FM-301 variables (``prt_mode`` "fixed", "staggered" or "dual"; ``follow_mode`` "none": a
+    ground radar follows no target), and the volume metadata the store moves to the root."""
     ds = xr.Dataset(
         {
             "sweep_number": ((), 0),
             "sweep_mode": ((), sweep_mode),
             "sweep_fixed_angle": ((), float(fixed_angle), dict(cf.elevation)),
+            "prt_mode": ((), prt_mode),
+            "follow_mode": ((), "none"),
             "prt": (
                 "beam",
                 np.asarray(prt, np.float64),

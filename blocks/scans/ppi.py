@@ -141,6 +141,7 @@ class PPISector(Block):
             start=start,
             end=start + seconds(self.n_beams * dwell),
             site=site,
+            prt_mode="fixed" if self.p["stagger"] == "uniform" else "staggered",
         )
         if self.p["stagger"] != "uniform":
             ds["prt_ratio"] = (

@@ -398,6 +398,23 @@ def ppi_figure(name: str, panels: list[tuple[str, Any]]) -> Figure:
     )
 
 
+def ppi_figures(panels: list[tuple[str, Any]], notes: list[str], case: str = "") -> list[Figure]:
+    """The per-moment PPI figures of a case: a moment the truth does not hold (no system's
+    store has its ``truth_`` field, e.g. velocity of a reflectivity-only file, ZDR of a
+    single-polarisation truth) gets no panels, and a note says so."""
+    if not panels:
+        return []
+    drawn = [n for n in FIELDS if any(f"truth_{n}" in s for _, s in panels)]
+    skipped = [n for n in FIELDS if n not in drawn]
+    if skipped:
+        where = f"case {case}: " if case else ""
+        notes.append(
+            f"{where}no PPI panels for {', '.join(skipped)}: no run scored them against a "
+            "truth (the truth does not hold them, or no system estimates them)"
+        )
+    return [ppi_figure(n, panels) for n in drawn]
+
+
 def histogram_figure(panels: list[tuple[str, Any]]) -> Figure:
     """Truth against estimate on each system's scored gates, one row per moment."""
     from matplotlib.colors import LogNorm
@@ -483,7 +500,7 @@ def build(out: Path) -> dict[str, Any]:
             graphs.setdefault(system, str(root.get("graph", "")))
             versions.add(str(root.get("pasim_graph_version", "?")))
             panels.append((system if point == "-" else f"{system} ({point})", sweep))
-        rep.figures["ppi"] = [ppi_figure(n, panels) for n in FIELDS if panels] if panels else []
+        rep.figures["ppi"] = ppi_figures(panels, notes, case)
         rep.figures["hist"] = [histogram_figure(panels)] if panels else []
         rep.figures["sweeps"] = [
             f

@@ -281,6 +281,7 @@ def execute(
     from pasim_graph import __version__
     from pasim_graph.dask_executor import DaskExecutor
     from pasim_graph.executor import RunOptions
+    from pasim_graph.provenance import provenance
 
     from .integrity import identity
 
@@ -317,6 +318,7 @@ def execute(
                 "source": "PASIM-graph simulation",
                 "study": study.file,
                 **identity(run),
+                **provenance(run.system, f"pasim study {study.file}"),
             }
             t0 = time.perf_counter()
             executor = DaskExecutor(
