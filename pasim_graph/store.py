@@ -277,7 +277,7 @@ _NOISE = (
 
 
 @contextlib.contextmanager
-def _quiet() -> Iterator[None]:
+def quiet_zarr_warnings() -> Iterator[None]:
     # Filters are added for good, not inside warnings.catch_warnings(): that swaps the
     # process-wide filter list in and out, so chunks writing from several threads at once
     # restored each other's lists and the warnings leaked (seen in one run of three).
@@ -343,7 +343,7 @@ def create_sweep(
     ``beam_coords`` are the coordinates along the beams for every beam.
     """
     ds = sweep_template(sweep, beam_coords, n_beams, chunk_beams)
-    with _quiet():
+    with quiet_zarr_warnings():
         # mode "a", never "w": zarr's "w" empties the whole directory, marker and lock included.
         ds.to_zarr(
             path,
@@ -390,7 +390,7 @@ def create_root(path: str | Path, root: xr.Dataset, n_chunks: int) -> None:
     root.attrs[COMPLETE] = "false"
     root_encoding = {n: encoding(v.dtype) for n, v in root.variables.items()}
     root_encoding[DONE]["chunks"] = (1,)
-    with _quiet():
+    with quiet_zarr_warnings():
         rest = [n for n in root.data_vars if n != DONE]
         root[rest].to_zarr(
             path,
@@ -463,7 +463,7 @@ def write_region(
         where = tuple(slice(start, stop) if d == beam_dim else slice(None) for d in ds[name].dims)
         array[where] = ds[name].values
     rest = [n for n in region_vars if n not in raw]
-    with _quiet():
+    with quiet_zarr_warnings():
         if rest:
             ds[rest].to_zarr(
                 path,
@@ -497,7 +497,7 @@ def mark_incomplete(path: str | Path) -> None:
     """Flag a store as being written again (its damaged chunks are rewritten)."""
     import zarr
 
-    with _quiet():
+    with quiet_zarr_warnings():
         zarr.open_group(str(path), mode="r+").attrs[COMPLETE] = "false"
 
 
@@ -510,7 +510,7 @@ def mark_complete(path: str | Path) -> None:
     """
     import zarr
 
-    with _quiet():
+    with quiet_zarr_warnings():
         zarr.consolidate_metadata(str(path))
         root = zarr.open_group(str(path), mode="r+")
         root.attrs[COMPLETE] = "true"
@@ -594,5 +594,5 @@ def open_volume(path: str | Path) -> xr.DataTree:
             f"{path}: the run did not finish ({done} of {state[1].size} chunks written); "
             "complete it with `pasim run ... --resume`"
         )
-    with _quiet():
+    with quiet_zarr_warnings():
         return xr.open_datatree(path, engine="zarr")

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import xarray as xr
 
-from .store import _quiet, beam_dimension, encoding
+from .store import beam_dimension, encoding, quiet_zarr_warnings
 from .store_check import arrays_on_disk
 
 
@@ -68,7 +68,7 @@ def _relay(path: str | Path, group: str, ds: xr.Dataset, names: list[str]) -> No
     prefix = f"{group}/" if group else ""
     present = {n.removeprefix(prefix) for n in arrays_on_disk(path) if n.startswith(prefix)}
     new = {n: encoding(v.dtype) for n, v in subset.variables.items() if n not in present}
-    with _quiet():
+    with quiet_zarr_warnings():
         subset.to_zarr(
             path,
             group=group or None,

@@ -270,7 +270,7 @@ def test_a_run_store_damaged_on_disk_is_named_not_a_traceback(tmp_path, capsys, 
     shutil.copytree(study, copy)
     store = sorted(copy.glob("runs/*/*/*/estimate-seed*.zarr"))[0]
     chunk = sorted((store / "sweep_0" / "error_DBZH" / "c").rglob("*"))
-    chunk = [c for c in chunk if c.is_file()][0]
+    chunk = next(c for c in chunk if c.is_file())
     raw = bytearray(chunk.read_bytes())
     raw[len(raw) // 2] ^= 0xFF
     chunk.write_bytes(bytes(raw))

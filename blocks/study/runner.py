@@ -259,7 +259,7 @@ def check_stores(study: Study, runs: list[Run], out: Path, state: dict[str, Any]
                     f"{path}: refused, this store is not this run of the study: {why}; it is "
                     "left as it is: remove it for --resume to run it again, or use another --out"
                 )
-            if bool(stored[1].all()):
+            if finished(path):  # every chunk, and every array its layout lists
                 continue
         todo.append(run)
     return todo
