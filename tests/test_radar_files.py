@@ -156,7 +156,9 @@ def test_odim_runs_single_polarisation_and_says_so(tmp_path, capsys):
     assert code == 0, err
     assert err.count("single polarisation") == 1 and "no WRADH" in err, err
     scores = json.loads(pasim_out(capsys, "score", str(out), "--json")[1])
-    assert sorted(scores) == ["DBZH", "VRADH"]
+    # Scored against the truth: the two moments it holds; WRADH is listed as having none.
+    assert sorted(k for k, v in scores.items() if not v.get("no_truth")) == ["DBZH", "VRADH"]
+    assert scores["WRADH"]["no_truth"] is True and scores["WRADH"]["count"] == 0
 
 
 def test_uf_rhis_are_refused_by_name(tmp_path, capsys):
