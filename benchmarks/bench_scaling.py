@@ -224,6 +224,24 @@ def predict_study(model: dict, workers: int) -> float:
     return model["rest_s"] + model["work_s"] / workers
 
 
+def model_checks(rows: list[dict], case: str, predicted) -> list[dict]:
+    """The model's wall time against every measured run of this build's ``case``."""
+    out = []
+    for r in rows:
+        if r["case"] == case and r["build"] == "new":
+            wall = predicted(r["workers"])
+            out.append(
+                {
+                    "case": case,
+                    "workers": r["workers"],
+                    "measured_s": r["wall_s"],
+                    "predicted_s": wall,
+                    "error": wall / r["wall_s"] - 1,
+                }
+            )
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--graph", default=str(ROOT / "graphs" / "generic_radar.yaml"))
@@ -290,35 +308,13 @@ def main() -> int:
     if ones:
         model = graph_model(ones[0])
         summary["model"] = {k: v for k, v in model.items() if k != "costs"}
-        for r in rows:
-            if r["case"] == "graph" and r["build"] == "new":
-                p = predict(model, r["workers"])
-                checks.append(
-                    {
-                        "case": "graph",
-                        "workers": r["workers"],
-                        "measured_s": r["wall_s"],
-                        "predicted_s": p["wall_s"],
-                        "error": p["wall_s"] / r["wall_s"] - 1,
-                    }
-                )
+        checks += model_checks(rows, "graph", lambda w: predict(model, w)["wall_s"])
         summary["predicted"] = [predict(model, w) for w in (1, 2, 16, 64, 256, 1000)]
     sones = [r for r in rows if r["case"] == "study" and r["build"] == "new" and r["workers"] == 1]
     if sones:
         smodel = study_model(sones[0])
         summary["study_model"] = smodel
-        for r in rows:
-            if r["case"] == "study" and r["build"] == "new":
-                ps = predict_study(smodel, r["workers"])
-                checks.append(
-                    {
-                        "case": "study",
-                        "workers": r["workers"],
-                        "measured_s": r["wall_s"],
-                        "predicted_s": ps,
-                        "error": ps / r["wall_s"] - 1,
-                    }
-                )
+        checks += model_checks(rows, "study", lambda w: predict_study(smodel, w))
         summary["study_predicted"] = {w: predict_study(smodel, w) for w in (16, 64, 256, 1000)}
     summary["checks"] = checks
     digests = {r["digest"] for r in rows if r["case"] == "graph"}
