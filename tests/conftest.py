@@ -113,3 +113,18 @@ def assert_chunk_grids_are_each_beams_fields(block, az, el, seed: int) -> None:
         assert co[b].dtype == one_co.dtype and cross[b].dtype == one_cross.dtype
         np.testing.assert_array_equal(co[b], one_co)
         np.testing.assert_array_equal(cross[b], one_cross)
+
+
+TINY_UNIFORM = str(FIXTURES / "tiny_uniform.yaml")
+#: The tiny uniform run the store-damage and missing-array tests take apart (one beam a chunk).
+TINY_RUN = ["run", TINY_UNIFORM, "--chunk", "1", "--seed", "5", "--save-iq"]
+
+
+@pytest.fixture(scope="module")
+def original(tmp_path_factory):
+    """A finished store of :data:`TINY_RUN` (copied by the tests that damage it)."""
+    from pasim_graph.cli import main
+
+    out = tmp_path_factory.mktemp("orig") / "run.zarr"
+    assert main([*TINY_RUN, "--out", str(out)]) == 0
+    return out

@@ -17,20 +17,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pasim_graph.cli import main
 from pasim_graph.store import check_chunks
 
-from .conftest import FIXTURES, pasim
-
-TINY = str(FIXTURES / "tiny_uniform.yaml")
-RUN = ["run", TINY, "--chunk", "1", "--seed", "5", "--save-iq"]
-
-
-@pytest.fixture(scope="module")
-def original(tmp_path_factory):
-    out = tmp_path_factory.mktemp("orig") / "run.zarr"
-    assert main([*RUN, "--out", str(out)]) == 0
-    return out
+from .conftest import TINY_RUN as RUN
+from .conftest import pasim
 
 
 def chunk_files(store: Path) -> list[Path]:

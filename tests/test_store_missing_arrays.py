@@ -19,20 +19,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pasim_graph.cli import main
+from .conftest import TINY_RUN as RUN
+from .conftest import pasim
 
-from .conftest import FIXTURES, pasim
-
-TINY = str(FIXTURES / "tiny_uniform.yaml")
-RUN = ["run", TINY, "--chunk", "1", "--seed", "5", "--save-iq"]
 LIST = "pasim_arrays"
-
-
-@pytest.fixture(scope="module")
-def original(tmp_path_factory):
-    out = tmp_path_factory.mktemp("orig") / "run.zarr"
-    assert main([*RUN, "--out", str(out)]) == 0
-    return out
 
 
 def arrays(store: Path) -> list[str]:
