@@ -46,7 +46,8 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from pasim_graph.dask_executor import choose_chunk, read_tasks  # noqa: E402
+from pasim_graph.dask_executor import choose_chunk  # noqa: E402
+from pasim_graph.task_record import read_tasks  # noqa: E402
 
 PHASES = re.compile(r"set-up ([\d.]+) s, (\d+) of (\d+) chunks in ([\d.]+) s")
 

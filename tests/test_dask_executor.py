@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pasim_graph.dask_executor import choose_chunk, read_tasks
+from pasim_graph.dask_executor import choose_chunk
 from pasim_graph.store import run_state
+from pasim_graph.task_record import read_tasks
 
 from .conftest import GRAPHS, ROOT, run_cli
 
