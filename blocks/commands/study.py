@@ -58,7 +58,7 @@ class StudyCommand:
         )
 
     def run(self, args: argparse.Namespace) -> int:
-        from pasim_graph.cli import UserError
+        from pasim_graph.command_api import UserError
         from pasim_graph.dask_executor import (
             ResourceError,
             ResumeError,
@@ -176,7 +176,7 @@ class StudyCommand:
         return 0
 
     def report_only(self, args: argparse.Namespace) -> int:
-        from pasim_graph.cli import UserError
+        from pasim_graph.command_api import UserError
 
         from ..study.report import write_report
         from ..study.runner import StudyError

@@ -145,7 +145,7 @@ def finished(path: Path) -> bool:
 def measure_beamwidth(run: Run, estimate: Run, sector: tuple[float, float], el: float) -> float:
     """The one-way 3-dB beamwidth (geometric mean of azimuth and elevation) of the system's
     antenna, its beam steered to the sector's middle."""
-    from ..commands.pattern import build, measure
+    from ..antennas.beam_figures import build, measure
     from .hardware import sector_middle
 
     graph = estimate.graph()
