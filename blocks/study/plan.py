@@ -171,12 +171,12 @@ def collisions(study: Study, system: System, case: Case, on_case: dict[str, Any]
 
 
 def _method_overrides(graph: Graph) -> dict[str, Any]:
-    out = {}
-    for name, cls in graph.classes.items():
-        q = cls.params.get("method")
-        if q is not None and q.choices and "expected" in q.choices:
-            out[f"{name}.method"] = "expected"
-    return out
+    """Every block that declares an expected level, set to it (``Block.expected_level``)."""
+    return {
+        f"{name}.{cls.fidelity_param}": cls.expected_level
+        for name, cls in graph.classes.items()
+        if cls.fidelity_param and cls.expected_level
+    }
 
 
 def calibration_choices(graph: Graph) -> tuple[str, dict[str, dict[str, Any]]]:

@@ -219,6 +219,9 @@ class WeatherChannel(WidthParams, Block):
     # main lobe and first sidelobes of a -32 dB antenna and drops the far ones; covariance
     # leaves undrawn the weakest cells summing to 0.1 % of each gate's echo, covariance-all
     # draws them all.
+    # The study's reference runs read these, not the parameter's name.
+    fidelity_param = "method"
+    expected_level = "expected"
     fidelity_ladder = (
         ("expected", {"method": "expected", "support_db": -100.0, "precision": "float64"}),
         ("combined-40dB", {"method": "combined", "support_db": -40.0, "precision": "float32"}),
