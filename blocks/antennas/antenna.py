@@ -21,6 +21,9 @@ from pasim_graph import Block, Chunk, Input, Output
 
 from ..signals import BEAMS, PATTERN, POLARIZATIONS
 from .base import pattern_dataset, two_way_solid_angle
+from .geometry import DualPolField
+
+__all__ = ["Antenna", "DualPolField"]
 
 
 class Antenna(Block, abc.ABC):
@@ -42,13 +45,14 @@ class Antenna(Block, abc.ABC):
         el_deg: np.ndarray,
         seed: int = 0,
         resource: Any = None,
-    ) -> Any:
+    ) -> DualPolField:
         """One-way complex fields of both ports at absolute directions (``az_deg``,
         ``el_deg``, degrees, any broadcastable shapes) for the beam steered to
-        (``steer_az_deg``, ``steer_el_deg``): a :class:`~.geometry.DualPolField`
-        (``h_co``, ``h_cross``, ``v_co``, ``v_cross``), normalised so that the power is 1 at
-        the peak gain :meth:`pattern_gain_db`. ``seed`` is the run seed (an antenna with
-        random channel errors draws them from it); ``resource`` what :meth:`load` returned."""
+        (``steer_az_deg``, ``steer_el_deg``): a :class:`DualPolField` (``h_co``,
+        ``h_cross``, ``v_co``, ``v_cross``, broadcastable arrays), normalised so that the
+        power is 1 at the peak gain :meth:`pattern_gain_db`. ``seed`` is the run seed (an
+        antenna with random channel errors draws them from it); ``resource`` what
+        :meth:`load` returned."""
 
     @abc.abstractmethod
     def broadside(self) -> tuple[float, float]:
