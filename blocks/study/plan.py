@@ -170,7 +170,7 @@ def collisions(study: Study, system: System, case: Case, on_case: dict[str, Any]
     return out
 
 
-def _method_overrides(graph: Graph) -> dict[str, Any]:
+def expected_overrides(graph: Graph) -> dict[str, Any]:
     """Every block that declares an expected level, set to it (``Block.expected_level``)."""
     return {
         f"{name}.{cls.fidelity_param}": cls.expected_level
@@ -288,7 +288,7 @@ def _settle(
     where = f"system '{system.name}', case '{case.name}'"
     problems += [Problem(study.file, case.line, "", where, t) for t in trouble]
     problems += collisions(study, system, case, on_case)
-    method = _method_overrides(graph)
+    method = expected_overrides(graph)
     if not method:
         problems.append(
             Problem(study.file, system.line, "", where, "no weather block with method 'expected'")
