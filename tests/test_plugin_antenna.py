@@ -1,8 +1,8 @@
 """A plugin antenna written against the declared base alone (``pasim_blocks.antennas.antenna``:
-``Antenna`` and ``DualPolField``, as docs/writing-blocks.md shows) works with ``pasim pattern``,
-``pasim run`` and ``pasim study``; one that leaves out a method of the base is refused when the
-registry loads it, naming the method; a command plugin that is not a ``Command`` is refused
-naming what it lacks.
+``Antenna`` and ``DualPolField``), the one of docs/writing-blocks.md taken from the page as
+written, works with ``pasim pattern``, ``pasim run`` and ``pasim study``; one that leaves out
+a method of the base is refused when the registry loads it, naming the method; a command
+plugin that is not a ``Command`` is refused naming what it lacks.
 
 The antenna: a square array of N x N isotropic elements half a wavelength apart, uniform
 weights, mechanically steered. Its one-way field in the antenna's direction cosines (u, v) is
@@ -21,6 +21,9 @@ from __future__ import annotations
 
 import json
 import math
+import re
+import sys
+import types
 from importlib.metadata import EntryPoint
 from pathlib import Path
 from typing import Any
@@ -28,10 +31,10 @@ from typing import Any
 import numpy as np
 import pytest
 import xarray as xr
-from pasim_blocks.antennas.antenna import Antenna, DualPolField
+from pasim_blocks.antennas.antenna import Antenna
 from scipy.optimize import brentq, minimize_scalar
 
-from pasim_graph import Chunk, Param, block, registry
+from pasim_graph import Chunk, block, registry
 from pasim_graph.command_api import Command
 
 from .conftest import FIXTURES, pasim, pasim_out
@@ -39,6 +42,8 @@ from .conftest import FIXTURES, pasim, pasim_out
 N = 24
 SQUARE = "zz_plugin.square"
 NO_GAIN = "zz_plugin.no_gain"
+GUIDE = Path(__file__).resolve().parents[1] / "docs" / "writing-blocks.md"
+GUIDE_MODULE = "guide_square_array"
 
 
 def array_factor(u: Any) -> Any:
@@ -47,39 +52,18 @@ def array_factor(u: Any) -> Any:
     return np.sinc(N * u / 2) / np.sinc(u / 2)
 
 
-class SquareArray(Antenna):
-    """N x N isotropic elements half a wavelength apart, uniform weights, mechanically
-    steered; H and V alike, no cross-polar field."""
-
-    elements = Param(N, type="int", min=2, max=256, doc="elements per side")
-    support_deg = Param(10.0, units="deg", min=1.0, max=45.0, doc="half-width of the grid")
-    grid_step_deg = Param(0.2, units="deg", min=0.01, max=1.0, doc="pattern grid step")
-
-    def broadside(self) -> tuple[float, float]:
-        return 0.0, 0.0
-
-    def pattern_gain_db(self, resource: Any = None) -> float:
-        # A uniform aperture of (N lambda / 2)^2: 4 pi A / lambda^2.
-        return 10 * math.log10(math.pi * self.p["elements"] ** 2)
-
-    def fields_at(self, steer_az_deg, steer_el_deg, az_deg, el_deg, seed=0, resource=None):
-        el = np.deg2rad(np.asarray(el_deg, float))
-        d_az = np.deg2rad(np.asarray(az_deg, float) - steer_az_deg)
-        x, y, z = np.cos(el) * np.sin(d_az), np.cos(el) * np.cos(d_az), np.sin(el)
-        el0 = np.deg2rad(steer_el_deg)
-        # Into the antenna's frame (its axis along y): turned down by the steering elevation.
-        y_a = y * np.cos(el0) + z * np.sin(el0)
-        z_a = -y * np.sin(el0) + z * np.cos(el0)
-        n = self.p["elements"]
-        field = np.sinc(n * x / 2) / np.sinc(x / 2) * np.sinc(n * z_a / 2) / np.sinc(z_a / 2)
-        field = np.where(y_a > 0, field, 0.0).astype(complex)
-        zero = np.zeros_like(field)
-        return DualPolField(h_co=field, h_cross=zero, v_co=field, v_cross=zero)
-
-    def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        n = round(self.p["support_deg"] / self.p["grid_step_deg"])
-        d = np.arange(-n, n + 1) * self.p["grid_step_deg"]
-        return {"pattern": self.sampled_pattern(inputs["beams"], d, d, chunk.seed, chunk.resource)}
+def guide_module() -> types.ModuleType:
+    """The module ``my_radar_blocks/square_array.py`` of docs/writing-blocks.md, as written
+    there (kept in ``sys.modules`` so that an entry point can name it)."""
+    if GUIDE_MODULE not in sys.modules:
+        text = GUIDE.read_text()
+        start = text.index("`my_radar_blocks/square_array.py`")
+        match = re.compile(r"```python\n(.*?)```", re.S).search(text, start)
+        assert match, "the guide's square array"
+        module = types.ModuleType(GUIDE_MODULE)
+        exec(compile(match.group(1), f"{GUIDE}:square_array.py", "exec"), module.__dict__)
+        sys.modules[GUIDE_MODULE] = module
+    return sys.modules[GUIDE_MODULE]
 
 
 class NoGain(Antenna):
@@ -120,10 +104,11 @@ FINE = Fine()
 def plugins(monkeypatch: pytest.MonkeyPatch):
     """The two antennas registered in ``pasim_graph.blocks`` (as a plugin package's entry
     points would), in this process."""
+    guide_module()
     real = dict(registry._entry_points())
     ours = {
-        name: EntryPoint(name, f"{__name__}:{cls.__name__}", registry.GROUP)
-        for name, cls in ((SQUARE, SquareArray), (NO_GAIN, NoGain))
+        SQUARE: EntryPoint(SQUARE, f"{GUIDE_MODULE}:SquareArray", registry.GROUP),
+        NO_GAIN: EntryPoint(NO_GAIN, f"{__name__}:NoGain", registry.GROUP),
     }
     registry._loaded.clear()
     registry._errors.clear()
@@ -169,7 +154,9 @@ def test_pasim_pattern_measures_the_plugin_antenna(plugins, tmp_path, capsys) ->
 
 
 def test_the_sampled_pattern_is_the_formula(plugins) -> None:
-    antenna = SquareArray(name="antenna")
+    square = guide_module().SquareArray
+    assert square.params["elements"].default == N
+    antenna = square(name="antenna")
     beams = xr.Dataset({"azimuth": ("beam", [280.0, 281.0]), "elevation": ("beam", [0.5, 0.5])})
     ds = antenna.process({"beams": beams}, Chunk(beams=np.arange(2)))["pattern"]
     assert ds["power"].sizes["beam"] == 2
@@ -220,7 +207,7 @@ def test_an_antenna_missing_a_method_is_refused_naming_it(plugins, tmp_path, cap
         assert registry.get(NO_GAIN) is None
     (message,) = [str(w.message) for w in caught]
     assert "Antenna" in message and "fields_at" not in message  # only what is missing
-    assert registry.get(SQUARE) is SquareArray
+    assert registry.get(SQUARE) is guide_module().SquareArray
     code, err = pasim(capsys, "validate", str(graph_with(tmp_path, NO_GAIN)))
     assert code == 2
     assert "block 'antenna'" in err and "pattern_gain_db" in err and "Traceback" not in err
