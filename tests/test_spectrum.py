@@ -1,5 +1,5 @@
 """``pasim spectrum`` and the amplifiers' rise and fall edges (``blocks/commands/spectrum.py``,
-``blocks/transmitters/emission.py``, ``amplifiers.py``).
+``blocks/transmitters/radiated.py``, ``emission.py``, ``amplifiers.py``).
 
 What each test compares against:
 
