@@ -66,6 +66,7 @@ class StudyCommand:
             check_scheduler,
         )
         from pasim_graph.executor import BlockError
+        from pasim_graph.steering import SteeringError
 
         if args.report_only:
             return self.report_only(args)
@@ -147,7 +148,7 @@ class StudyCommand:
                 "the same command and --resume",
                 exc.exit_code,
             ) from None
-        except BlockError as exc:
+        except (BlockError, SteeringError) as exc:
             raise UserError(f"{args.study}: {exc}") from None
         except StudyError as exc:
             raise UserError(str(exc)) from None
