@@ -214,6 +214,21 @@ class Block:
         default is one sweep with the graph's parameters."""
         return [{}]
 
+    @classmethod
+    def steering_problems(
+        cls, params: dict[str, Any], azimuth_deg: np.ndarray, elevation_deg: np.ndarray
+    ) -> list[tuple[str, str]]:
+        """Beams of the scan this block cannot point at (a steerable antenna's), as
+        ``(item, message)`` pairs; empty when it reaches them all (the default).
+
+        ``params`` holds the valid values given in the graph (defaults not filled in), the
+        arrays the azimuth and elevation (deg) of every beam of one sweep. Validation calls it
+        with the scan's nominal beams and the executor with the beams as aligned to the truth,
+        before any chunk runs, so that a run or a study is refused before any work rather than
+        failing on its first beam.
+        """
+        return []
+
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         raise NotImplementedError
 

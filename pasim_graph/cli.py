@@ -64,6 +64,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from .executor import BlockError, RunOptions
     from .provenance import provenance
     from .scores import print_volume, volume_scores
+    from .steering import SteeringError
     from .store import StoreError, StoreExistsError, open_volume
 
     graph = load_graph(args)
@@ -134,6 +135,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.debug:
             raise
         raise UserError(f"{args.graph}: {exc} (rerun with --debug for the traceback)") from None
+    except SteeringError as exc:
+        raise UserError(str(exc)) from None
     except (StoreError, StoreExistsError, ResumeError, ResourceError, SchedulerError) as exc:
         raise UserError(f"{out}: {exc}" if isinstance(exc, SchedulerError) else str(exc)) from None
     dt = time.perf_counter() - t0

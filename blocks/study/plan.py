@@ -354,6 +354,9 @@ def _system_runs(
             run.inputs = dict(files)
         return runs
     checked: dict[str, dict[str, str]] = {}  # the seeds of a kind share one graph
+    # A problem the runs of several kinds share (a sector behind a planar face) is named
+    # once, with its kinds.
+    found: dict[str, list[str]] = {}
     for run in runs:
         if run.kind in checked:
             run.inputs = dict(checked[run.kind])
@@ -362,10 +365,11 @@ def _system_runs(
             run.inputs = checked[run.kind] = input_paths(run.graph())
         except GraphError as exc:
             checked[run.kind] = {}
-            problems += [
-                Problem(study.file, case.line, "", f"{where}, {run.kind} run", str(p))
-                for p in exc.problems
-            ]
+            for p in exc.problems:
+                found.setdefault(str(p), []).append(run.kind)
+    for text, kinds in found.items():
+        runs_of = f"{kinds[0]} run" if len(kinds) == 1 else f"{', '.join(kinds)} runs"
+        problems.append(Problem(study.file, case.line, "", f"{where}, {runs_of}", text))
     return runs
 
 
