@@ -23,10 +23,11 @@ usable PHIDP, gaps filled along the radial, made non-decreasing along the radial
 maximum), then differentiated. Usable: echo, rho_hv at least a threshold, and a PHIDP texture
 (its standard deviation over the :data:`TEXTURE_GATES` around the gate) under
 :data:`TEXTURE_DEG`: ground clutter near the radar and noise have rho_hv near 1 at some gates
-but a PHIDP that jumps by tens of degrees from gate to gate, where rain's varies by a few. So KDP >= 0: a negative KDP in rain
-is noise of the derivative, and a negative attenuation would amplify; clipping the noisy
-derivative at 0 instead would keep its positive half, which adds up along the path (about 5
-dB too much two-way at C band over 200 km of the bundled squall line, measured).
+but a PHIDP that jumps by tens of degrees from gate to gate, where rain's varies by a few.
+So KDP >= 0: a negative KDP in rain is noise of the derivative, and a negative attenuation
+would amplify; clipping the noisy derivative at 0 instead would keep its positive half, which
+adds up along the path (about 5 dB too much two-way at C band over 200 km of the bundled
+squall line, measured).
 """
 
 from __future__ import annotations
