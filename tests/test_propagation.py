@@ -18,6 +18,10 @@ What each test compares against:
 - ``test_gases_against_doviak_and_zrnic``: the gas model at S band against Doviak and Zrnic's
   fitted two-way atmospheric attenuation of a 10 cm radar (an independent source).
 - ``test_band_rule`` and ``test_bad_values_are_named_in_one_line``: the switch and its refusals.
+- ``test_kdp_from_a_known_phidp_ramp``: KDP derived from a synthetic radial whose PHIDP rises
+  at a known rate, with noise and a clutter spike, against that rate.
+- ``test_coefficients_follow_the_stated_rule``: the table and the interpolation rule as
+  docs/propagation.md states them.
 
 Propagation off at the truth's band leaves the numbers of every existing graph bit-identical:
 ``tests/test_port_schemas.py`` checks each graph's fingerprint (tests/fingerprints.json).
@@ -192,3 +196,37 @@ def test_bad_values_are_named_in_one_line(sets, words):
     assert len(problem) == 1, res.stderr
     for word in words:
         assert word in problem[0], (word, res.stderr)
+
+
+def test_kdp_from_a_known_phidp_ramp():
+    """A radial whose PHIDP rises at 2 x 1.5 deg/km over 50 km, with 3 deg of noise and a
+    clutter spike: the derived KDP is 1.5 deg/km inside the ramp (within 0.15), about 0
+    outside, and its two-way integral is the rise (150 deg, within 5 %)."""
+    rng = np.random.default_rng(7)
+    gate_m, n = 250.0, 600
+    r_km = (np.arange(n) + 0.5) * gate_m / 1e3
+    true_kdp = np.where((r_km > 25) & (r_km < 75), 1.5, 0.0)
+    phidp = 60 + 2 * np.cumsum(true_kdp) * gate_m / 1e3 + rng.normal(0, 3, n)
+    phidp[40] += 150.0  # one spike: a clutter gate with a wild phase
+    dbz = np.full(n, 35.0)
+    rho = np.full(n, 0.98)
+    kdp = kdp_from_phidp(phidp[None, :], dbz[None, :], rho[None, :], gate_m, 5000.0, 0.9)[0]
+    inside = (r_km > 30) & (r_km < 70)
+    outside = (r_km < 20) | (r_km > 80)
+    assert abs(kdp[inside].mean() - 1.5) < 0.15
+    assert kdp[outside].mean() < 0.1
+    rise = 2 * kdp.sum() * gate_m / 1e3
+    assert abs(rise - 150.0) < 7.5, rise
+
+
+def test_coefficients_follow_the_stated_rule():
+    from pasim_blocks.propagation.rain import coefficients
+
+    assert coefficients(5.6e9) == pytest.approx((0.07, 1.0, 0.015, 1.0))
+    assert coefficients(2.0e9) == pytest.approx((0.0175, 1.0, 0.0035, 1.0))  # held below S
+    assert coefficients(12e9) == pytest.approx((0.275, 1.0, 0.04, 1.0))  # held above X
+    # Linear in log alpha over log f between the rows: the geometric mean at the log middle.
+    middle = np.sqrt(2.8e9 * 5.6e9)
+    assert coefficients(middle)[0] == pytest.approx(np.sqrt(0.0175 * 0.07))
+    with pytest.raises(ValueError, match=r"no rain attenuation coefficients at 1\.3 GHz"):
+        coefficients(1.3e9)
