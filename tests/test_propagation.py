@@ -22,6 +22,7 @@ What each test compares against:
   at a known rate, with noise and a clutter spike, against that rate.
 - ``test_coefficients_follow_the_stated_rule``: the table and the interpolation rule as
   docs/propagation.md states them.
+- ``test_the_run_says_once_that_propagation_is_on``: the command's output, on and off.
 
 Propagation off at the truth's band leaves the numbers of every existing graph bit-identical:
 ``tests/test_port_schemas.py`` checks each graph's fingerprint (tests/fingerprints.json).
@@ -230,3 +231,15 @@ def test_coefficients_follow_the_stated_rule():
     assert coefficients(middle)[0] == pytest.approx(np.sqrt(0.0175 * 0.07))
     with pytest.raises(ValueError, match=r"no rain attenuation coefficients at 1\.3 GHz"):
         coefficients(1.3e9)
+
+
+def test_the_run_says_once_that_propagation_is_on(tmp_path):
+    """Two chunks, each of which applies the path: the note is printed once; off, never."""
+    base = ["run", str(GRAPH), "--sector", "300:302", "--chunk", "1"]
+    base += ["--set", "weather.method=expected"]
+    on = run_cli(*base, "--out", str(tmp_path / "on.zarr"))
+    assert on.returncode == 0, on.stderr
+    assert on.stderr.count("note: weather: propagation on at 5.6 GHz") == 1, on.stderr
+    off = run_cli(*base, "--set", "weather.propagation=off", "--out", str(tmp_path / "off.zarr"))
+    assert off.returncode == 0, off.stderr
+    assert "propagation on" not in off.stderr
