@@ -19,11 +19,13 @@ At the simulated radar's frequency f, from the truth measured at f_t:
 The truth (a NEXRAD sweep) carries PHIDP, not KDP: :func:`kdp_from_phidp` derives it as half
 the range derivative of PHIDP, smoothed (a median filter, then a least-squares slope over a
 window, scipy's Savitzky-Golay filter of order 1, that is a moving mean), on the gates with a
-usable PHIDP, gaps filled along the radial, made non-decreasing along the radial (its running
-maximum), then differentiated. Usable: echo, rho_hv at least a threshold, and a PHIDP texture
-(its standard deviation over the :data:`TEXTURE_GATES` around the gate) under
-:data:`TEXTURE_DEG`: ground clutter near the radar and noise have rho_hv near 1 at some gates
-but a PHIDP that jumps by tens of degrees from gate to gate, where rain's varies by a few.
+usable PHIDP, gaps filled along the radial, unwrapped (PHIDP is reported modulo 360 deg),
+made non-decreasing along the radial (its running maximum), then differentiated. Usable:
+echo of at least :data:`MIN_DBZ` (weaker echo's PHIDP is mostly noise), rho_hv at least a
+threshold, and a PHIDP texture (its standard deviation over the :data:`TEXTURE_GATES` around
+the gate) under :data:`TEXTURE_DEG`: ground clutter near the radar and noise have rho_hv
+near 1 at some gates but a PHIDP that jumps by tens of degrees from gate to gate, where
+rain's varies by a few.
 So KDP >= 0: a negative KDP in rain is noise of the derivative, and a negative attenuation
 would amplify; clipping the noisy derivative at 0 instead would keep its positive half, which
 adds up along the path (about 5 dB too much two-way at C band over 200 km of the bundled
@@ -46,6 +48,8 @@ COEFFICIENTS: dict[str, tuple[float, float, float, float, float]] = {
 }
 #: Frequencies with coefficients (Hz): the S to X bands (IEEE letter bands).
 COVERED_HZ = (2e9, 12e9)
+#: Weakest echo (dBZ) whose PHIDP enters the KDP fit.
+MIN_DBZ = 10.0
 #: PHIDP texture: gates of the window and the largest standard deviation (deg) of a usable gate.
 TEXTURE_GATES = 9
 TEXTURE_DEG = 10.0
@@ -90,7 +94,9 @@ def kdp_from_phidp(
 ) -> np.ndarray:
     """KDP (deg/km, >= 0) on a radial x gate grid from PHIDP (deg): 0 where there is no echo
     (DBZH NaN) and on radials with fewer usable gates than the window holds."""
-    usable = np.isfinite(phidp_deg) & np.isfinite(dbz)
+    # Weak echo's PHIDP is mostly noise (and at NEXRAD's 0-360 deg it wraps from just
+    # below the offset to near 360): it does not enter the fit.
+    usable = np.isfinite(phidp_deg) & (np.nan_to_num(dbz, nan=-999.0) >= MIN_DBZ)
     if rhohv is not None:
         usable &= np.nan_to_num(rhohv, nan=0.0) >= min_rhohv
     usable &= texture(phidp_deg, usable) <= TEXTURE_DEG
@@ -104,6 +110,9 @@ def kdp_from_phidp(
         # Unusable gates take the PHIDP of their usable neighbours (held at the ends): the
         # phase a gap adds shows on the far side, as the derivative across the gap.
         filled[i] = np.interp(gates, gates[usable[i]], phidp_deg[i, usable[i]])
+    # PHIDP is reported modulo 360 deg: a step of more than 180 deg between neighbours is a
+    # wrap, not propagation (rain adds a few degrees per gate at most).
+    filled = np.unwrap(filled, period=360.0, axis=1)
     # The median removes isolated spikes (clutter, second trips) the slope would spread.
     filled = median_filter(filled, size=(1, max(3, window // 4 * 2 + 1)), mode="nearest")
     smooth = savgol_filter(filled, window, 1, axis=1, mode="nearest")
