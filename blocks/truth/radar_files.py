@@ -33,6 +33,7 @@ from .gridding import (
     sector_order,
     wrap360,
 )
+from .iris_rays import keep_iris_rays_in_order
 from .level2 import FIELD_NAMES
 from .nexrad_io import TruthSweep
 
@@ -81,6 +82,9 @@ _MAX_UNPACKED_BYTES = 2 << 30
 def _backends() -> dict[str, Callable[..., Any]]:
     import xradar.io as xio
 
+    # xradar's IRIS reader labels each ray with the next ray's azimuth: undone here, where
+    # every radar file PASIM reads is opened (see :mod:`.iris_rays`).
+    keep_iris_rays_in_order()
     names = {
         "CfRadial 1": "open_cfradial1_datatree",
         "ODIM_H5": "open_odim_datatree",
