@@ -38,7 +38,9 @@ class NexradTruth(Block):
 
     A file in another format (CfRadial 1 and 2, ODIM_H5, IRIS/Sigmet, UF, Rainbow, GAMIC,
     Furuno) is read through xradar, its fields mapped onto the six moments by name or standard
-    name (:mod:`pasim_blocks.truth.radar_files`); what follows describes Level-II.
+    name (:mod:`pasim_blocks.truth.radar_files`); an IRIS/Sigmet ray keeps the azimuth its
+    own header gives, where xradar 0.12 labels it with the next ray's
+    (:mod:`pasim_blocks.truth.iris_rays`). What follows describes Level-II.
 
     Reads the surveillance and Doppler cuts nearest ``elevation_deg`` (message 31, or a
     legacy message 1 file), merges them by azimuth and range, masks below-threshold and
