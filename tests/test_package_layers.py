@@ -34,6 +34,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("pasim_blocks.antennas",),
     ("pasim_blocks.truth",),
     ("pasim_blocks.scans",),
+    ("pasim_blocks.propagation",),
     ("pasim_blocks.weather",),
     ("pasim_blocks.receivers",),
     ("pasim_blocks.processing",),
