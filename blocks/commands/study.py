@@ -124,10 +124,11 @@ class StudyCommand:
             raise UserError(str(exc)) from None
 
         latest: dict = {}
+        read: dict = {}  # every store's errors, read once for all the rescores
 
         def rescore() -> None:
             latest["scores"] = score_study(
-                study, runs, out, state["beamwidths"], state.get("patterns", {})
+                study, runs, out, state["beamwidths"], state.get("patterns", {}), read
             )
             write_scores(out, latest["scores"])
 

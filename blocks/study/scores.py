@@ -63,6 +63,13 @@ class Errors:
         )
 
 
+def root_token(path: Path) -> tuple[int, int]:
+    """What changes whenever a store is completed or rewritten: its root metadata's
+    modification time and size (the completion marker and the task record live there)."""
+    st = (path / "zarr.json").stat()
+    return st.st_mtime_ns, st.st_size
+
+
 def read_errors(path: str | Path) -> Errors:
     from pasim_graph.store import open_sweep
 
@@ -254,20 +261,31 @@ def score_study(
     out: Path,
     beamwidths: dict[str, float],
     patterns: dict[str, Any] | None = None,
+    read: dict[str, tuple[tuple[int, int], Errors]] | None = None,
 ) -> dict[str, Any]:
     """Scores of every system, case and point whose runs are all finished; ``patterns``: the
-    antenna figures the runner measured (:mod:`.patterns`), by ``SYSTEM/CASE/POINT``."""
+    antenna figures the runner measured (:mod:`.patterns`), by ``SYSTEM/CASE/POINT``;
+    ``read``: the errors of the stores read by an earlier call, kept by the caller.
+
+    A study scores again after every run it finishes; without ``read`` each call would read
+    (and verify the checksums of) every finished store again, so a study of N runs read
+    N^2 / 2 stores. A store is read again only if its root metadata changed since (a store
+    is completed, or repaired by ``--resume``, by rewriting it)."""
     from .runner import finished
     from .sweeps import sweep_summaries
 
     errors: dict[str, Errors] = {}
+    kept = read if read is not None else {}
 
     def get(run: Run) -> Errors | None:
         path = out / "runs" / run.key
         if run.key not in errors:
             if not finished(path):
                 return None
-            errors[run.key] = read_errors(path)
+            token = root_token(path)
+            if run.key not in kept or kept[run.key][0] != token:
+                kept[run.key] = (token, read_errors(path))
+            errors[run.key] = kept[run.key][1]
         return errors[run.key]
 
     def find(system: str, case: str, point: str, kind: str, seed: int | None) -> Run | None:
