@@ -128,3 +128,33 @@ def original(tmp_path_factory):
     out = tmp_path_factory.mktemp("orig") / "run.zarr"
     assert main([*TINY_RUN, "--out", str(out)]) == 0
     return out
+
+
+TINY_STUDY = FIXTURES / "study" / "tiny_study.yaml"
+
+
+@pytest.fixture(scope="session")
+def tiny_study(tmp_path_factory) -> Path:
+    """The tiny study's finished output folder, built once for the whole test run: the first
+    test worker (pytest-xdist) to need it runs ``pasim study`` under a file lock, the others
+    wait for it and share it. Tests read it; a test that changes a study copies it first."""
+    import fcntl
+
+    from pasim_graph.cli import main
+
+    base = tmp_path_factory.getbasetemp()
+    # Under pytest-xdist each worker's base folder sits in one folder common to the run.
+    shared = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    out = shared / "tiny-study" / "out"
+    with open(shared / "tiny-study.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        built = shared / "tiny-study" / "built"
+        if not built.exists():
+            built.parent.mkdir(exist_ok=True)
+            if out.exists():  # a worker stopped half way: start again
+                import shutil
+
+                shutil.rmtree(out)
+            assert main(["study", str(TINY_STUDY), "--out", str(out)]) == 0
+            built.touch()
+    return out

@@ -11,22 +11,22 @@ import pytest
 
 from pasim_graph.studio.server import StudioServer
 
-from .conftest import FIXTURES, run_cli
+from .conftest import FIXTURES
 from .test_studio_http import TOKEN, Client
 
 STUDY = FIXTURES / "study"
 
 
 @pytest.fixture(scope="module")
-def served(tmp_path_factory) -> Path:
-    """A folder with the tiny study's files and its finished output, as `pasim study` wrote it."""
+def served(tmp_path_factory, tiny_study) -> Path:
+    """A folder with the tiny study's files and its finished output, as `pasim study` wrote it
+    (the output shared by the study tests, copied in)."""
     root = tmp_path_factory.mktemp("served")
     for f in STUDY.iterdir():
         if f.is_file():
             shutil.copy(f, root / f.name)
     (root / "results").mkdir()
-    res = run_cli("study", "tiny_study.yaml", "--out", "results/tiny", cwd=root)
-    assert res.returncode == 0, res.stderr
+    shutil.copytree(tiny_study, root / "results" / "tiny")
     return root
 
 

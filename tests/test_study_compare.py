@@ -20,10 +20,8 @@ FIELDS = ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH")
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("compare") / "study"
-    assert main(["study", str(STUDY), "--out", str(out)]) == 0
-    return out / "runs"
+def runs(tiny_study) -> Path:
+    return tiny_study / "runs"
 
 
 def sweep(path: Path) -> xr.Dataset:

@@ -25,10 +25,8 @@ PNG = b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.fixture(scope="module")
-def study(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("report") / "out"
-    assert main(["study", str(STUDY), "--out", str(out)]) == 0
-    return out
+def study(tiny_study) -> Path:
+    return tiny_study
 
 
 class Page(HTMLParser):
@@ -122,7 +120,10 @@ def test_the_budget_table_and_figure_are_there(study):
     assert any("budget" in (a.get("alt") or "") for t, a in p.tags if t == "img")
 
 
-def test_report_only_rebuilds_it_without_running(study, capsys):
+def test_report_only_rebuilds_it_without_running(study, tmp_path, capsys):
+    import shutil
+
+    study = shutil.copytree(study, tmp_path / "out")  # the shared study stays as it is
     stores = sorted((study / "runs").rglob("*.zarr"))
     before = {s: s.stat().st_mtime_ns for s in stores}
     (study / REPORT).unlink()

@@ -30,10 +30,8 @@ def _errors(path: Path, name: str) -> np.ndarray:
 
 
 @pytest.fixture(scope="module")
-def study(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("study") / "out"
-    assert main(["study", str(STUDY), "--out", str(out)]) == 0
-    return out
+def study(tiny_study) -> Path:
+    return tiny_study
 
 
 def scores(out: Path) -> dict:
@@ -212,7 +210,10 @@ def test_resume_writes_again_an_array_removed_from_a_run(tmp_path, study):
     np.testing.assert_array_equal(_errors(run, "ZDR")[0], _errors(original, "ZDR")[0])
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=str)
+# SIGTERM in the default suite; SIGINT takes the same path (stop_on_signals) with -m slow.
+@pytest.mark.parametrize(
+    "sig", [pytest.param(signal.SIGINT, marks=pytest.mark.slow), signal.SIGTERM], ids=str
+)
 def test_a_signalled_study_ends_with_one_line_and_resumes(tmp_path, study, sig):
     """SIGINT / SIGTERM: exit 130 / 143, one line saying how to go on, no traceback, no lock
     left in any run's store; --resume then gives the uninterrupted study's scores."""
