@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from pasim_graph import Block, Chunk, Input, Output, Param
+from pasim_graph.scores import mean_prt
 
 from ..angles import circular_difference, nearest_radial
 from ..cf import cf_attributes
@@ -126,7 +127,7 @@ class PPISector(Block):
         prt = self.p["prt_s"]
         if self.p["stagger"] != "uniform":
             # The dwell's pulses alternate T1 and T2 = T1 / ratio apart.
-            prt = prt * (1 + 1 / float(STAGGERS[self.p["stagger"]])) / 2
+            prt = mean_prt(prt, float(STAGGERS[self.p["stagger"]]))
         dwell = self.p["pulses"] * prt
         ds = beam_dataset(
             self._cf,

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from pasim_graph import Param
+from pasim_graph.scores import mean_prt
 
 from ..timing import STAGGERS
 from .ppi import PPISector, sector_beams
@@ -127,7 +128,7 @@ class VolumeScan(PPISector):
             )
             prt = cut.prt_s
             if get("stagger", values) != "uniform":
-                prt = prt * (1 + 1 / float(STAGGERS[get("stagger", values)])) / 2
+                prt = mean_prt(prt, float(STAGGERS[get("stagger", values)]))
             offset += n * cut.pulses * prt
             out.append(sweep)
         return out
