@@ -11,7 +11,7 @@ from pasim_graph.scores import mean_prt
 
 from ..angles import circular_difference, nearest_radial
 from ..timing import STAGGERS, sz_code
-from .beams import beam_dataset, seconds, site_and_start
+from .beam_geometry import beam_dataset, seconds, site_and_start
 from .scan import DwellScan
 
 

@@ -10,7 +10,7 @@ import numpy as np
 from pasim_graph import Chunk, Param
 
 from ..angles import nearest_radial
-from .beams import beam_dataset, seconds, site_and_start
+from .beam_geometry import beam_dataset, seconds, site_and_start
 from .scan import DwellScan
 
 

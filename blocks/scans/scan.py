@@ -16,7 +16,7 @@ class Scan(Block):
     """Base of the scans: the block that defines a run's beams (``beam_source``), addressed
     by ``--sector`` (role ``scan``), reading the site and start time from the truth when it is
     connected. A subclass implements ``beam_count`` and ``process`` (one chunk's beams, made
-    with :func:`~pasim_blocks.scans.beams.beam_dataset`); ``setup`` leaves the CF attributes
+    with :func:`~pasim_blocks.scans.beam_geometry.beam_dataset`); ``setup`` leaves the CF attributes
     in ``self._cf``.
     """
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from pasim_graph import Chunk, Param
 
-from .beams import beam_dataset, seconds, site_and_start
+from .beam_geometry import beam_dataset, seconds, site_and_start
 from .scan import Scan
 
 #: The columns a schedule file must have, and the optional one that names each beam's sweep.

@@ -257,8 +257,8 @@ def score_study(
 ) -> dict[str, Any]:
     """Scores of every system, case and point whose runs are all finished; ``patterns``: the
     antenna figures the runner measured (:mod:`.patterns`), by ``SYSTEM/CASE/POINT``."""
+    from .design_curves import sweep_summaries
     from .runner import finished
-    from .sweeps import sweep_summaries
 
     errors: dict[str, Errors] = {}
 
