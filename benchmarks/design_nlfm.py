@@ -22,8 +22,8 @@ import time
 import numpy as np
 import scipy
 from pasim_blocks.signals import SPEED_OF_LIGHT
-from pasim_blocks.waveforms.compression import power_efficiency, sidelobes
 from pasim_blocks.waveforms.nlfm import OPTIMISED_FILE, design_optimised, optimised_envelope
+from pasim_blocks.waveforms.pulse_compression import power_efficiency, sidelobes
 
 BANDWIDTH_HZ, WIDTH_S, OVERSAMPLING = 3.6e6, 50e-6, 2.0
 

@@ -5,7 +5,7 @@
 Prints markdown tables: (1) `pasim waveform` on the three shipped graphs; (2) the NLFM design
 steps of docs/waveforms.md at 3.6 MHz x 50 us, 2x oversampled, matched filter; (3) every
 waveform through each amplifier and receive filter. All figures come from the blocks and
-blocks/compression.py, as `pasim waveform` computes them.
+blocks/waveforms/pulse_compression.py, as `pasim waveform` computes them.
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from pasim_blocks.receivers.filters import MatchedFilter, MismatchedFilter
 from pasim_blocks.signals import SPEED_OF_LIGHT
 from pasim_blocks.transmitters.amplifiers import RappAmplifier, SalehAmplifier
 from pasim_blocks.waveforms.chain import analyse
-from pasim_blocks.waveforms.compression import power_efficiency, sidelobes
 from pasim_blocks.waveforms.nlfm import gaussian_log_density, stationary_phase
+from pasim_blocks.waveforms.pulse_compression import power_efficiency, sidelobes
 from pasim_blocks.waveforms.pulses import LinearFM, NonlinearFM, pulse_dataset
 
 from pasim_graph import Chunk, load

@@ -4,7 +4,7 @@ of the dwells: what a phased array's update time is made of)."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import xarray as xr
@@ -12,18 +12,30 @@ import xarray as xr
 #: The store attribute (root and each sweep) holding the time on target, in seconds.
 TIME_ON_TARGET = "pasim_time_on_target_s"
 
+PRT = TypeVar("PRT", float, np.ndarray)
+
+
+def mean_prt(t1_s: PRT, ratio: PRT) -> PRT:
+    """The mean pulse spacing of a staggered dwell, T1 (1 + 1 / ratio) / 2: its pulses
+    alternate T1 and T2 = T1 / ratio apart (``ratio`` = T1 / T2, a scan's ``prt_ratio``).
+
+    The one definition the scans (their dwell times) and the scores (the time on target)
+    share: both must agree to the bit on how long a staggered sweep takes.
+    """
+    return t1_s * (1.0 + 1.0 / ratio) / 2.0
+
 
 def time_on_target(sweep: xr.Dataset) -> float:
     """Sum over the beams of pulses x PRT, in seconds (0 when the sweep says neither).
 
-    A staggered scan's dwell alternates T1 and T2 = T1 / ratio (``prt_ratio``), so its mean
-    PRT is T1 (1 + 1 / ratio) / 2. ``pulses`` is one number per sweep or one per beam.
+    A staggered scan's PRT is its mean (:func:`mean_prt` of ``prt``, T1, and ``prt_ratio``).
+    ``pulses`` is one number per sweep or one per beam.
     """
     if "prt" not in sweep.variables or "pulses" not in sweep.variables:
         return 0.0
     prt = np.asarray(sweep["prt"].values, dtype=np.float64)
     if "prt_ratio" in sweep.variables:
-        prt = prt * (1.0 + 1.0 / np.asarray(sweep["prt_ratio"].values, dtype=np.float64)) / 2.0
+        prt = mean_prt(prt, np.asarray(sweep["prt_ratio"].values, dtype=np.float64))
     pulses = np.broadcast_to(np.asarray(sweep["pulses"].values, dtype=np.float64), prt.shape)
     return float(np.sum(pulses * prt))
 

@@ -281,7 +281,7 @@ def test_taylor_weighting_brings_lfm_sidelobes_to_the_window_level(domain: str) 
     mainlobe staying at zero offset. Weighting in time: within 2.5 dB (stationary phase, finite
     time-bandwidth product). Weighting in frequency leaves the Fresnel ripple of the LFM's own
     spectrum (TB 180) in the output: -36.7 dB measured, so only -35 dB or lower is asked."""
-    from pasim_blocks.waveforms.compression import sidelobes
+    from pasim_blocks.waveforms.pulse_compression import sidelobes
 
     s = lfm()
     dx = C / (2 * 7.2e6)

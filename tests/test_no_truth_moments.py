@@ -66,7 +66,7 @@ def _texts(ax) -> str:
 
 
 def test_plot_marks_the_rows_without_truth(store, tmp_path):
-    from pasim_blocks.products.plot import available, plot_store, store_figure
+    from pasim_blocks.products.moment_figures import available, plot_store, store_figure
 
     sweep = sweep_of(store)
     names, notes = available(sweep)

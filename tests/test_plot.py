@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 import xarray as xr
 from matplotlib.image import imread
-from pasim_blocks.products.plot import STYLES, moment_row, open_sweep, ppi_mesh, store_figure
+from pasim_blocks.products.moment_figures import (
+    STYLES,
+    moment_row,
+    open_sweep,
+    ppi_mesh,
+    store_figure,
+)
 
 from pasim_graph.store import summarize
 

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from matplotlib.image import imread
-from pasim_blocks.products.plot import is_rhi, open_sweep, rhi_mesh, store_figure
-from pasim_blocks.scans.beams import EARTH_RADIUS_M, beam_height_m, ground_range_m
+from pasim_blocks.products.moment_figures import is_rhi, open_sweep, rhi_mesh, store_figure
+from pasim_blocks.scans.beam_geometry import EARTH_RADIUS_M, beam_height_m, ground_range_m
 
 from .conftest import GRAPHS, pasim_out
 

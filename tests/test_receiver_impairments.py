@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import xarray as xr
 from pasim_blocks.receivers.adc import ADC, quantise
-from pasim_blocks.receivers.compression import ReceiverCompression
+from pasim_blocks.receivers.gain_compression import ReceiverCompression
 from pasim_blocks.receivers.iq_imbalance import IQImbalance, image_rejection_db
 from pasim_blocks.receivers.receiver import Receiver
 from scipy import integrate, stats
@@ -130,7 +130,7 @@ def test_compression_1db_point_and_gaussian_power():
     assert np.allclose(
         block.process({"iq_in": small}, Chunk(beams=np.arange(1)))["iq"], small, rtol=1e-5
     )
-    from pasim_blocks.receivers.compression import saturation_from_p1db
+    from pasim_blocks.receivers.gain_compression import saturation_from_p1db
 
     a_sat = saturation_from_p1db(p1, 2.0)
     x = gaussian_iq((2, 500, 200, 2), p1)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from pasim_blocks.scans.rhi import RHIScan, rhi_elevations
 from pasim_blocks.scans.vcp import PRESETS, parse_cuts, preset_key
-from pasim_blocks.scans.volume import VolumeScan
+from pasim_blocks.scans.volume_scan import VolumeScan
 
 from pasim_graph import Chunk
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import xarray as xr
 from pasim_blocks.study.calibration import MIN_GATES
-from pasim_blocks.study.sweeps import NEGLIGIBLE_SHARE, monotone, stops_mattering
+from pasim_blocks.study.design_curves import NEGLIGIBLE_SHARE, monotone, stops_mattering
 
 from pasim_graph.cli import main
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from pasim_blocks.processing.scorer import REQUIREMENTS
 from pasim_blocks.study.report import REPORT, sweep_figure
-from pasim_blocks.study.scores import FIELDS
+from pasim_blocks.study.statistics import FIELDS
 
 from pasim_graph.cli import main
 

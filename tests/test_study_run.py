@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
-from pasim_blocks.study.scores import MAD_TO_STD, bootstrap, robust_std, wrap
+from pasim_blocks.study.statistics import MAD_TO_STD, bootstrap, robust_std, wrap
 
 from pasim_graph.cli import main
 

@@ -245,7 +245,7 @@ def test_convolve_full_is_scipys_convolution_without_importing_it() -> None:
     """Up to DIRECT_PRODUCTS multiply-adds scipy.signal.convolve chooses the direct method
     (through np.convolve), so convolve_full gives its numbers to the bit; above, it calls it."""
     import scipy.signal
-    from pasim_blocks.waveforms.compression import DIRECT_PRODUCTS, convolve_full
+    from pasim_blocks.waveforms.pulse_compression import DIRECT_PRODUCTS, convolve_full
 
     rng = np.random.default_rng(3)
     for n, m in [(2, 2), (64, 3), (1000, 1000), (4000, 1000), (DIRECT_PRODUCTS // 2000, 2000)]:

@@ -49,7 +49,7 @@ class CompareCommand:
     def run(self, args: argparse.Namespace) -> int:
         from pasim_graph.command_api import UserError
 
-        from ..study.compare import CompareError, compare, names, read_store
+        from ..study.common_gates import CompareError, compare, names, read_store
 
         if len(args.stores) < 2:
             raise UserError("pasim compare needs at least two stores (pasim score reads one)")
@@ -79,14 +79,20 @@ class CompareCommand:
         """``pasim score STORE [--against REF.zarr] [--by azimuth[:BIN]]``."""
         from pasim_graph.command_api import UserError
 
-        from ..study.compare import CompareError, by_azimuth, parse_by, read_store, score_against
+        from ..study.common_gates import (
+            CompareError,
+            by_azimuth,
+            parse_by,
+            read_store,
+            score_against,
+        )
 
         try:
             store = read_store(args.store, args.sweep)
             ref = read_store(args.against, args.sweep) if args.against else None
             if args.by:
                 bin_deg = parse_by(args.by)
-                from ..study.compare import errors_against
+                from ..study.common_gates import errors_against
 
                 errors = errors_against(store, ref) if ref else store.errors
                 rows = by_azimuth(store.azimuth, errors, bin_deg)

@@ -30,7 +30,7 @@ class PlotCommand:
     def run(self, args: argparse.Namespace) -> int:
         from pasim_graph.command_api import UserError
 
-        from ..products.plot import NotAStoreError, plot_store
+        from ..products.moment_figures import NotAStoreError, plot_store
 
         store = Path(args.store)
         out = Path(args.out) if args.out else Path(store.name.removesuffix(".zarr") + ".png")

@@ -79,8 +79,8 @@ class StudyCommand:
         from ..study.model import read_study
         from ..study.plan import plan_runs
         from ..study.runner import StudyError, execute, take_folder, unscored
-        from ..study.scores import score_study, write_scores
         from ..study.sizing import MAX_RUNS, MAX_SECONDS, duration, size_study
+        from ..study.statistics import score_study, write_scores
 
         study = read_study(args.study)
         problems = list(study.problems)

@@ -6,21 +6,11 @@ from typing import Any
 
 import numpy as np
 
-from pasim_graph import Block, Chunk, Input, Output
+from pasim_graph import Chunk, Input
 
-from ..signals import (
-    BEAMS,
-    CALIBRATION,
-    CORRELATION_PRODUCTS,
-    ECHO_CORRELATIONS,
-    IQ,
-    MOMENT_FIELDS,
-    MOMENTS,
-    NOISE_POWER,
-    POLARIMETRIC_FIELDS,
-)
+from ..signals import CORRELATION_PRODUCTS, ECHO_CORRELATIONS
 from ..timing import cohere_first_trip
-from .output import Censoring, moments_dataset, thresholds
+from .moment_processor import MomentProcessor
 
 
 def correlations(iq_h: np.ndarray, iq_v: np.ndarray | None, doppler: bool = True) -> dict:
@@ -182,7 +172,7 @@ def pulse_pair(
     )
 
 
-class PulsePairProcessor(Censoring, Block):
+class PulsePairProcessor(MomentProcessor):
     """Pulse-pair moments, noise-corrected, calibrated to dBZ with the radar constant.
 
     Power is lag-0 minus the known noise power; velocity is from the phase of the lag-1
@@ -207,35 +197,23 @@ class PulsePairProcessor(Censoring, Block):
     the moments it gives uncoded, and echoes of other trips stay spread by the code.
     """
 
-    iq = Input(IQ, doc="received I/Q")
-    noise_power = Input(NOISE_POWER, doc="noise power per channel")
-    calibration = Input(CALIBRATION, doc="radar constant and gate ranges")
-    beams = Input(BEAMS, doc="beam geometry (PRT, transmit phases)")
+    transmissions = ("shv", "ahv")
+
     echo_correlations = Input(
         ECHO_CORRELATIONS, required=False, doc="expected echo correlations (expected level)"
     )
-    moments = Output(MOMENTS, store="moments", doc="estimated moments", fields=MOMENT_FIELDS)
-
-    def setup(self) -> None:
-        self._threshold_db = thresholds(self.p)
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        iq, noise = inputs["iq"], inputs["noise_power"]
-        cal = inputs["calibration"]
-        prt = float(inputs["beams"]["prt"].values[0])
-        lam = float(cal.attrs["wavelength_m"])
-        mode = str(cal.attrs.get("transmission", "shv"))
-        beta = float(cal.attrs.get("transmit_differential_phase_deg", 0.0))
-        polarimetric = chunk.wants(*POLARIMETRIC_FIELDS)
-        dual = bool(cal.attrs.get("dual_polarization", 1)) and polarimetric
+        d = self.dwell(inputs, chunk)
+        iq, noise, prt, lam = d.iq, d.noise, d.prt_s, d.wavelength_m
+        mode, polarimetric, dual = d.transmission, d.polarimetric, d.dual
+        cal = d.calibration
         doppler = chunk.wants("VRADH", "WRADH")
         if "prt_ratio" in inputs["beams"]:
             raise ValueError(
                 "the scan's PRT is staggered (scan.ppi's stagger): the pulse-pair processor "
                 "assumes a uniform PRT; use processor.staggered"
             )
-        if mode not in ("shv", "ahv"):
-            raise ValueError(f"calibration: unknown transmission {mode!r} (expected shv or ahv)")
         iq = cohere_first_trip(iq, inputs["beams"])
         if mode == "ahv":
             # The weather channel draws V for AHV's velocity too (its lag 2 of H and V).
@@ -287,18 +265,6 @@ class PulsePairProcessor(Censoring, Block):
         else:
             corr = correlations(iq[..., 0], iq[..., 1] if dual else None, doppler)
             est = moments_from_correlations(corr, noise[..., 0], noise[..., 1], prt, lam)
-        if "PHIDP" in est and mode == "shv" and beta:
-            # The system's differential phase on transmit is known: calibrated out.
-            est["PHIDP"] = np.mod(est["PHIDP"] - beta, 360.0)
         # AHV's velocity comes from a lag of two pulses: half the Nyquist velocity.
         nyquist = lam / (4 * prt) / (2 if mode == "ahv" else 1)
-        ds = moments_dataset(
-            est,
-            noise[..., 0],
-            cal,
-            chunk,
-            self._threshold_db,
-            nyquist,
-            {"transmission": mode, "phidp_period_deg": 180.0 if mode == "ahv" else 360.0},
-        )
-        return {"moments": ds}
+        return self.moments_output(est, noise[..., 0], d, chunk, nyquist)

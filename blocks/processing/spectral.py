@@ -26,17 +26,9 @@ from typing import Any
 import numpy as np
 import scipy.signal
 
-from pasim_graph import Block, Chunk, Input, Output, Param
+from pasim_graph import Chunk, Output, Param
 
-from ..signals import (
-    BEAMS,
-    CALIBRATION,
-    IQ,
-    MOMENT_FIELDS,
-    MOMENTS,
-    NOISE_POWER,
-    POLARIMETRIC_FIELDS,
-)
+from ..signals import MOMENT_FIELDS, MOMENTS
 from ..timing import cohere_first_trip
 from .gmap import (
     FIRST_LOOK_WINDOW,
@@ -47,7 +39,7 @@ from .gmap import (
     gmap_window,
     select_windows,
 )
-from .output import Censoring, moments_dataset, thresholds
+from .moment_processor import MomentProcessor
 
 #: Windows offered, by their name in graph files -> scipy.signal.windows name.
 WINDOWS = {
@@ -116,7 +108,7 @@ def moments_from_spectrum(
     }
 
 
-class SpectralProcessor(Censoring, Block):
+class SpectralProcessor(MomentProcessor):
     """Moments from the windowed periodogram, optionally after the GMAP clutter filter.
 
     Per gate and channel the dwell is windowed (``window``: rectangular, Hann, Hamming,
@@ -137,10 +129,6 @@ class SpectralProcessor(Censoring, Block):
     clutter are then the uncoded ones, clutter at zero velocity.
     """
 
-    iq = Input(IQ, doc="received I/Q")
-    noise_power = Input(NOISE_POWER, doc="noise power per channel")
-    calibration = Input(CALIBRATION, doc="radar constant and gate ranges")
-    beams = Input(BEAMS, doc="beam geometry (PRT, transmit phases)")
     moments = Output(
         MOMENTS, store="moments", doc="estimated moments", fields=(*MOMENT_FIELDS, "CCORH")
     )
@@ -171,9 +159,6 @@ class SpectralProcessor(Censoring, Block):
     cpa_threshold = Param(
         0.5, min=0.0, max=1.0, doc="clutter phase alignment at or above which a gate is clutter"
     )
-
-    def setup(self) -> None:
-        self._threshold_db = thresholds(self.p)
 
     def _estimate(
         self,
@@ -222,23 +207,15 @@ class SpectralProcessor(Censoring, Block):
         return est, correction
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        iq, noise = inputs["iq"], inputs["noise_power"]
-        cal = inputs["calibration"]
-        prt = float(inputs["beams"]["prt"].values[0])
-        lam = float(cal.attrs["wavelength_m"])
-        mode = str(cal.attrs.get("transmission", "shv"))
-        if mode != "shv":
-            raise ValueError(
-                f"the spectral processor handles simultaneous transmission (shv) only; the "
-                f"weather channel's transmission is {mode!r}"
-            )
+        d = self.dwell(inputs, chunk)
+        iq, noise, prt, lam = d.iq, d.noise, d.prt_s, d.wavelength_m
         if iq.shape[2] < 4:
             raise ValueError(
                 f"the spectral processor needs at least 4 pulses per dwell, got {iq.shape[2]} "
                 "(the weather channel's method 'expected' has none: use processor.pulse_pair)"
             )
-        iq = cohere_first_trip(iq, inputs["beams"])
-        dual = bool(cal.attrs.get("dual_polarization", 1)) and chunk.wants(*POLARIMETRIC_FIELDS)
+        iq = cohere_first_trip(iq, d.beams)
+        dual = d.dual
         m = iq.shape[2]
         nyquist = lam / (4 * prt)
         n_b, n_g = iq.shape[:2]
@@ -265,23 +242,13 @@ class SpectralProcessor(Censoring, Block):
             for k, v in part.items():
                 est.setdefault(k, np.full(n_b * n_g, np.nan))[sel] = v
             correction[sel] = corr
-        beta = float(cal.attrs.get("transmit_differential_phase_deg", 0.0))
-        if beta and "PHIDP" in est:
-            est["PHIDP"] = np.mod(est["PHIDP"] - beta, 360.0)
         est = {k: v.reshape(n_b, n_g) for k, v in est.items()}
-        ds = moments_dataset(
-            est,
-            noise[..., 0],
-            cal,
-            chunk,
-            self._threshold_db,
-            nyquist,
-            {"transmission": mode, "phidp_period_deg": 360.0},
-        )
+        out = self.moments_output(est, noise[..., 0], d, chunk, nyquist)
+        ds = out["moments"]
         if chunk.wants("CCORH"):
             ds["CCORH"] = (
                 ("beam", "range"),
                 correction.reshape(n_b, n_g).astype(np.float32),
                 {"units": "dB", "long_name": "clutter power removed by the clutter filter, H"},
             )
-        return {"moments": ds}
+        return out

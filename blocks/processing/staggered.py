@@ -27,19 +27,10 @@ from typing import Any
 
 import numpy as np
 
-from pasim_graph import Block, Chunk, Input, Output
+from pasim_graph import Chunk
 
-from ..signals import (
-    BEAMS,
-    CALIBRATION,
-    IQ,
-    MOMENT_FIELDS,
-    MOMENTS,
-    NOISE_POWER,
-    POLARIMETRIC_FIELDS,
-)
 from ..timing import cohere_first_trip, prt_ratio
-from .output import Censoring, moments_dataset, thresholds
+from .moment_processor import MomentProcessor
 from .pulse_pair import correlations, moments_from_correlations
 
 
@@ -95,7 +86,7 @@ def staggered_velocity_width(
     return velocity, width
 
 
-class StaggeredPrtProcessor(Censoring, Block):
+class StaggeredPrtProcessor(MomentProcessor):
     """Moments of a staggered-PRT dwell (scan.ppi's ``stagger``), Torres et al. (2004).
 
     Velocity dealiased on the extended Nyquist interval lambda / (4 (T2 - T1)) by the
@@ -105,17 +96,9 @@ class StaggeredPrtProcessor(Censoring, Block):
     the first trip first, as ``processor.pulse_pair`` does.
     """
 
-    iq = Input(IQ, doc="received I/Q, pulses alternately T1 and T2 apart")
-    noise_power = Input(NOISE_POWER, doc="noise power per channel")
-    calibration = Input(CALIBRATION, doc="radar constant and gate ranges")
-    beams = Input(BEAMS, doc="beam geometry (T1, the PRT ratio, transmit phases)")
-    moments = Output(MOMENTS, store="moments", doc="estimated moments", fields=MOMENT_FIELDS)
-
-    def setup(self) -> None:
-        self._threshold_db = thresholds(self.p)
-
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        iq, noise, cal, beams = (inputs[k] for k in ("iq", "noise_power", "calibration", "beams"))
+        d = self.dwell(inputs, chunk)
+        iq, noise, beams = d.iq, d.noise, d.beams
         ratio = prt_ratio(beams)
         if ratio is None:
             raise ValueError(
@@ -127,13 +110,8 @@ class StaggeredPrtProcessor(Censoring, Block):
                 f"a staggered dwell needs at least 3 pulses (one T1 and one T2 pair), got "
                 f"{iq.shape[2]} (the weather channel's method 'expected' has none)"
             )
-        mode = str(cal.attrs.get("transmission", "shv"))
-        if mode != "shv":
-            raise ValueError(f"staggered PRT is processed for transmission shv, got {mode!r}")
         iq = cohere_first_trip(iq, beams)
-        t1 = float(beams["prt"].values[0])
-        lam = float(cal.attrs["wavelength_m"])
-        dual = bool(cal.attrs.get("dual_polarization", 1)) and chunk.wants(*POLARIMETRIC_FIELDS)
+        t1, lam, dual = d.prt_s, d.wavelength_m, d.dual
         corr = correlations(iq[..., 0], iq[..., 1] if dual else None, doppler=False)
         est = moments_from_correlations(corr, noise[..., 0], noise[..., 1], t1, lam)
         if chunk.wants("VRADH", "WRADH"):
@@ -142,17 +120,5 @@ class StaggeredPrtProcessor(Censoring, Block):
             ok = (est["S_H"] > 0) & (np.abs(r1) > 0) & (np.abs(r2) > 0)
             est["VRADH"] = np.where(ok, v, np.nan)
             est["WRADH"] = np.where(ok, w, np.nan)
-        beta = float(cal.attrs.get("transmit_differential_phase_deg", 0.0))
-        if "PHIDP" in est and beta:
-            est["PHIDP"] = np.mod(est["PHIDP"] - beta, 360.0)
         extended = lam / (4 * (t1 / float(ratio) - t1))
-        ds = moments_dataset(
-            est,
-            noise[..., 0],
-            cal,
-            chunk,
-            self._threshold_db,
-            extended,
-            {"transmission": mode, "phidp_period_deg": 360.0},
-        )
-        return {"moments": ds}
+        return self.moments_output(est, noise[..., 0], d, chunk, extended)

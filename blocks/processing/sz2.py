@@ -48,20 +48,16 @@ from typing import Any
 import numpy as np
 import scipy.signal
 
-from pasim_graph import Block, Chunk, Input, Output, Param
+from pasim_graph import Chunk, Output, Param
 
 from ..signals import (
-    BEAMS,
-    CALIBRATION,
-    IQ,
     MOMENTS,
-    NOISE_POWER,
     POLARIMETRIC_FIELDS,
     SPEED_OF_LIGHT,
 )
 from ..timing import transmit_phase
 from .gmap import clutter_shape
-from .output import Censoring, moments_dataset, thresholds
+from .moment_processor import MomentProcessor
 
 #: Fraction of the spectrum the notch removes around the strong trip (SZ(8/64): 3/4).
 NOTCH_FRACTION = 0.75
@@ -231,7 +227,7 @@ def weak_censored(est: dict[str, np.ndarray], max_ratio_db: float, margin_db: fl
     return ~(ratio <= max_ratio_db) | ~(margin >= margin_db)
 
 
-class SZ2Processor(Censoring, Block):
+class SZ2Processor(MomentProcessor):
     """SZ-2: reflectivity, velocity and width of two overlaid trips of an SZ(8/64)-coded scan.
 
     See :mod:`pasim_blocks.processing.sz2` for the algorithm. Trip 1's moments are reported
@@ -242,10 +238,6 @@ class SZ2Processor(Censoring, Block):
     ``min_weak_snr_polarimetric_db``.
     """
 
-    iq = Input(IQ, doc="received I/Q of a phase-coded scan")
-    noise_power = Input(NOISE_POWER, doc="noise power per channel")
-    calibration = Input(CALIBRATION, doc="radar constant and gate ranges")
-    beams = Input(BEAMS, doc="beam geometry, PRT and transmit phases")
     moments = Output(
         MOMENTS,
         store="moments",
@@ -280,11 +272,9 @@ class SZ2Processor(Censoring, Block):
         "trip's)",
     )
 
-    def setup(self) -> None:
-        self._threshold_db = thresholds(self.p)
-
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
-        iq, noise, cal, beams = (inputs[k] for k in ("iq", "noise_power", "calibration", "beams"))
+        d = self.dwell(inputs, chunk)
+        iq, noise, cal, beams = d.iq, d.noise, d.calibration, d.beams
         pulses = iq.shape[2]
         psi = transmit_phase(beams, pulses)
         if psi is None:
@@ -296,19 +286,14 @@ class SZ2Processor(Censoring, Block):
             raise ValueError("processor.sz2 needs a uniform PRT (the scan is staggered)")
         if pulses < 8:
             raise ValueError(f"SZ-2 needs at least 8 pulses per dwell, got {pulses}")
-        prt = float(beams["prt"].values[0])
-        lam = float(cal.attrs["wavelength_m"])
+        prt, lam = d.prt_s, d.wavelength_m
         rng = cal["range"].values
         gate_m = float(rng[1] - rng[0]) if rng.size > 1 else 1.0
         r_a = SPEED_OF_LIGHT * prt / 2
         n_a = round(r_a / gate_m)
         near = np.flatnonzero(rng < r_a)
         n_b, n_g = iq.shape[:2]
-        dual = (
-            bool(cal.attrs.get("dual_polarization", 1))
-            and chunk.wants(*POLARIMETRIC_FIELDS)
-            and iq.shape[-1] > 1
-        )
+        dual = d.dual and iq.shape[-1] > 1
         names = ("S_H", "VRADH", "WRADH", *(POLARIMETRIC_FIELDS if dual else ()))
         out = {k: np.full((n_b, n_g), np.nan) for k in names}
         pol_db = float(self.p["min_weak_snr_polarimetric_db"])
@@ -339,21 +324,14 @@ class SZ2Processor(Censoring, Block):
                 for k in POLARIMETRIC_FIELDS if dual else ():
                     out[k][i, g] = np.where(weak & pol_censored[ok], np.nan, est[f"{k}{trip}"][ok])
                 noise_h[i, g] = noise[i, near[ok], 0]
-        beta = float(cal.attrs.get("transmit_differential_phase_deg", 0.0))
-        if dual and beta:
-            # The system's differential phase on transmit is known: calibrated out.
-            out["PHIDP"] = np.mod(out["PHIDP"] - beta, 360.0)
         # A censored weak trip keeps its power (reflectivity) only where it is not swamped.
         out["S_H"] = np.where(np.isfinite(snr_power) | ~np.isfinite(out["S_H"]), out["S_H"], np.nan)
-        ds = moments_dataset(
+        return self.moments_output(
             out,
             noise_h,
-            cal,
+            d,
             chunk,
-            self._threshold_db,
             lam / (4 * prt),
-            {"transmission": "shv", "phidp_period_deg": 360.0},
             snr_power=snr_power,
             beyond_unambiguous=True,
         )
-        return {"moments": ds}

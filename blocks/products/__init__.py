@@ -1,6 +1,6 @@
 """Radar products of a finished run: what a person looks at after ``pasim run``.
 
-:mod:`.plot` draws a store's truth, estimate and error of each moment as PPIs with the
+:mod:`.moment_figures` draws a store's truth, estimate and error of each moment as PPIs with the
 weather-radar colour maps (``pasim plot``, the studio's run pictures, the study report's maps).
 The store itself (the CfRadial-2 layout and its scores) is written and read by the engine's
 executor (:mod:`pasim_graph.store`), which owns storage; the pictures are radar knowledge

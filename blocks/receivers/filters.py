@@ -24,7 +24,7 @@ import xarray as xr
 from pasim_graph import Block, Chunk, Input, Output, Param
 
 from ..signals import PULSE, RANGE_RESPONSE, SPEED_OF_LIGHT
-from ..waveforms.compression import convolve_full, snr_loss_db
+from ..waveforms.pulse_compression import convolve_full, snr_loss_db
 
 
 def range_response(

@@ -6,16 +6,16 @@ from typing import Any
 
 import numpy as np
 
-from pasim_graph import Block, Chunk, Input, Output, Param
+from pasim_graph import Chunk, Param
+from pasim_graph.scores import mean_prt
 
 from ..angles import circular_difference, nearest_radial
-from ..cf import cf_attributes
-from ..signals import BEAMS, TRUTH
 from ..timing import STAGGERS, sz_code
-from .beams import beam_dataset, seconds, site_and_start
+from .beam_geometry import beam_dataset, seconds, site_and_start
+from .scan import DwellScan
 
 
-class PPISector(Block):
+class PPISector(DwellScan):
     """A PPI sector scan: beams at one elevation across an azimuth sector.
 
     Beams are spaced ``beam_spacing_deg`` apart from ``azimuth_start_deg`` clockwise to
@@ -25,12 +25,6 @@ class PPISector(Block):
     0 to 360 deg is the full circle; a sector whose ends are equal, or narrower than one beam
     spacing, is refused at validation.
     """
-
-    role = "scan"
-    beam_source = True
-
-    truth = Input(TRUTH, required=False, doc="truth sweep, for site, time and alignment")
-    beams = Output(BEAMS, store="moments", doc="geometry of the beams in the chunk")
 
     azimuth_start_deg = Param(
         240.0,
@@ -42,9 +36,6 @@ class PPISector(Block):
     azimuth_stop_deg = Param(330.0, units="deg", min=0.0, max=360.0, doc="last edge of the sector")
     beam_spacing_deg = Param(1.0, units="deg", min=0.01, max=30.0, doc="azimuth step between beams")
     elevation_deg = Param(0.5, units="deg", min=-2.0, max=90.0, doc="beam elevation")
-    pulses = Param(64, type="int", min=2, max=4096, doc="pulses per dwell (M)")
-    prt_s = Param(1 / 300, units="s", min=1e-5, max=0.1, doc="pulse repetition time")
-    align_to_truth = Param(True, type="bool", doc="point each beam at the nearest truth radial")
     stagger = Param(
         "uniform",
         type="str",
@@ -57,21 +48,12 @@ class PPISector(Block):
         choices=("none", "sz8_64", "random"),
         doc="transmit phase code: none, SZ(8/64) (Sachidananda and Zrnic 1999), or random",
     )
-    time_offset_s = Param(
-        0.0,
-        units="s",
-        min=0.0,
-        max=1e6,
-        doc="start of the sweep after the truth's start (a volume sets it for each cut)",
-    )
 
     @classmethod
     def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
-        def get(name: str) -> Any:
-            return params.get(name, cls.params[name].default)
-
-        start, stop = get("azimuth_start_deg"), get("azimuth_stop_deg")
-        step = get("beam_spacing_deg")
+        start = cls.given(params, "azimuth_start_deg")
+        stop = cls.given(params, "azimuth_stop_deg")
+        step = cls.given(params, "beam_spacing_deg")
         sector = f"the sector {start:g} to {stop:g} deg"
         if stop - start != 360.0 and (stop - start) % 360.0 == 0.0:
             # setup() would read equal ends as the full circle: refused, since it is more
@@ -95,7 +77,7 @@ class PPISector(Block):
         return []
 
     def setup(self) -> None:
-        self._cf = cf_attributes()
+        super().setup()
         self.n_beams = sector_beams(
             self.p["azimuth_start_deg"], self.p["azimuth_stop_deg"], self.p["beam_spacing_deg"]
         )
@@ -126,7 +108,7 @@ class PPISector(Block):
         prt = self.p["prt_s"]
         if self.p["stagger"] != "uniform":
             # The dwell's pulses alternate T1 and T2 = T1 / ratio apart.
-            prt = prt * (1 + 1 / float(STAGGERS[self.p["stagger"]])) / 2
+            prt = mean_prt(prt, float(STAGGERS[self.p["stagger"]]))
         dwell = self.p["pulses"] * prt
         ds = beam_dataset(
             self._cf,

@@ -7,12 +7,11 @@ from typing import Any
 
 import numpy as np
 
-from pasim_graph import Block, Chunk, Input, Output, Param
+from pasim_graph import Chunk, Param
 
 from ..angles import nearest_radial
-from ..cf import cf_attributes
-from ..signals import BEAMS, TRUTH
-from .beams import beam_dataset, seconds, site_and_start
+from .beam_geometry import beam_dataset, seconds, site_and_start
+from .scan import DwellScan
 
 
 def rhi_elevations(start_deg: float, stop_deg: float, step_deg: float) -> np.ndarray:
@@ -22,7 +21,7 @@ def rhi_elevations(start_deg: float, stop_deg: float, step_deg: float) -> np.nda
     return start_deg + step_deg * np.arange(max(n, 1))
 
 
-class RHIScan(Block):
+class RHIScan(DwellScan):
     """A range-height indicator scan: beams at one azimuth from ``elevation_start_deg`` up to
     ``elevation_stop_deg``, ``elevation_step_deg`` apart, each dwelling ``pulses`` pulses of
     ``prt_s``. With the truth connected and ``align_to_truth`` set, the azimuth is the nearest
@@ -31,35 +30,17 @@ class RHIScan(Block):
     range against height.
     """
 
-    role = "scan"
-    beam_source = True
-
-    truth = Input(TRUTH, required=False, doc="truth sweep, for site, time and alignment")
-    beams = Output(BEAMS, store="moments", doc="geometry of the beams in the chunk")
-
     azimuth_deg = Param(285.0, units="deg", min=0.0, max=360.0, doc="azimuth of the RHI")
     elevation_start_deg = Param(0.5, units="deg", min=-2.0, max=90.0, doc="lowest beam")
     elevation_stop_deg = Param(20.0, units="deg", min=-2.0, max=90.0, doc="highest beam")
     elevation_step_deg = Param(
         0.5, units="deg", min=0.01, max=30.0, doc="elevation step between beams"
     )
-    pulses = Param(64, type="int", min=2, max=4096, doc="pulses per dwell (M)")
-    prt_s = Param(1 / 300, units="s", min=1e-5, max=0.1, doc="pulse repetition time")
-    align_to_truth = Param(True, type="bool", doc="point the RHI at the nearest truth radial")
-    time_offset_s = Param(
-        0.0,
-        units="s",
-        min=0.0,
-        max=1e6,
-        doc="start of the sweep after the truth's start (a volume sets it for each sweep)",
-    )
 
     @classmethod
     def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
-        def get(name: str) -> Any:
-            return params.get(name, cls.params[name].default)
-
-        start, stop = get("elevation_start_deg"), get("elevation_stop_deg")
+        start = cls.given(params, "elevation_start_deg")
+        stop = cls.given(params, "elevation_stop_deg")
         if stop < start:
             return [
                 (
@@ -71,7 +52,7 @@ class RHIScan(Block):
         return []
 
     def setup(self) -> None:
-        self._cf = cf_attributes()
+        super().setup()
         self.elevations = rhi_elevations(
             self.p["elevation_start_deg"],
             self.p["elevation_stop_deg"],

@@ -12,11 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from pasim_graph import Block, Chunk, Input, Output, Param
+from pasim_graph import Chunk, Param
 
-from ..cf import cf_attributes
-from ..signals import BEAMS, TRUTH
-from .beams import beam_dataset, seconds, site_and_start
+from .beam_geometry import beam_dataset, seconds, site_and_start
+from .scan import Scan
 
 #: The columns a schedule file must have, and the optional one that names each beam's sweep.
 COLUMNS = ("azimuth_deg", "elevation_deg", "pulses", "prt_s")
@@ -154,7 +153,7 @@ def _read(path: str, mtime_ns: int, size: int) -> tuple[Schedule | None, list[st
     ), []
 
 
-class ScheduledScan(Block):
+class ScheduledScan(Scan):
     """Beams listed in a CSV file, in the order the radar forms them: a phased array's
     adaptive or multifunction timeline.
 
@@ -169,12 +168,6 @@ class ScheduledScan(Block):
     A bad file (missing column, non-number, angle out of range) is refused at validation,
     naming the file, the row and the column.
     """
-
-    role = "scan"
-    beam_source = True
-
-    truth = Input(TRUTH, required=False, doc="truth sweep, for site and time")
-    beams = Output(BEAMS, store="moments", doc="geometry of the beams in the chunk")
 
     path = Param(None, type="path", doc="schedule CSV: azimuth_deg, elevation_deg, pulses, prt_s")
     sweep_index = Param(
@@ -200,7 +193,7 @@ class ScheduledScan(Block):
         return [{"sweep_index": k} for k in range(len(schedule.sweeps))]
 
     def setup(self) -> None:
-        self._cf = cf_attributes()
+        super().setup()
         schedule, problems = read_schedule(str(self.p["path"]))
         if schedule is None:
             raise ValueError("; ".join(problems[:3]))

@@ -1,7 +1,7 @@
 """Trade studies: systems x weather cases x seeds x sweeps, scored with an error budget.
 
 :mod:`.model` reads and checks the study file, :mod:`.plan` makes and validates every run,
-:mod:`.runner` runs them resumably into one folder, :mod:`.scores` writes ``scores.json`` and
+:mod:`.runner` runs them resumably into one folder, :mod:`.statistics` writes ``scores.json`` and
 ``scores.csv``.
 """
 

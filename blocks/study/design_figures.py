@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from .figures import Figure, canvas, point_value, uri
-from .scores import FIELDS
+from .statistics import FIELDS
 
 #: The budget's parts, bottom to top of a stacked bar, with their colours.
 PARTS = ("main_lobe", "range", "sidelobes", "estimator_noise")

@@ -26,7 +26,7 @@ def canvas(width: float, height: float) -> Any:
 
 
 def uri(fig: Any, dpi: int = 72) -> str:
-    from ..products.plot import png_bytes
+    from ..products.moment_figures import png_bytes
 
     return "data:image/png;base64," + base64.b64encode(png_bytes(fig, dpi)).decode("ascii")
 

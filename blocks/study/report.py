@@ -33,7 +33,7 @@ from .design_figures import (
 from .figures import Figure, canvas, uri
 from .hardware_figures import hardware_figure, hardware_table
 from .runner import MANIFEST, StudyError, read_manifest
-from .scores import FIELDS
+from .statistics import FIELDS
 
 REPORT = "report.html"
 TEMPLATES = Path(__file__).parent / "templates"
@@ -315,7 +315,7 @@ def _open(path: Path) -> tuple[Any, dict[str, Any]] | None:
 def _limits(sweeps: list[Any], name: str) -> tuple[float, float]:
     """Shared colour limits of a moment: the style's, velocity on the widest Nyquist interval,
     phi_DP on the span of the truth."""
-    from ..products.plot import STYLES
+    from ..products.moment_figures import STYLES
 
     style = STYLES[name]
     if name == "VRADH":
@@ -358,7 +358,7 @@ def ppi_figure(name: str, panels: list[tuple[str, Any]]) -> Figure:
     """Truth beside each system's estimate of one moment, on shared limits."""
     import cmweather  # noqa: F401  (registers the weather-radar colour maps)
 
-    from ..products.plot import STYLES, ppi_mesh
+    from ..products.moment_figures import STYLES, ppi_mesh
 
     style = STYLES[name]
     vmin, vmax = _limits([s for _, s in panels], name)
@@ -419,7 +419,7 @@ def histogram_figure(panels: list[tuple[str, Any]]) -> Figure:
     """Truth against estimate on each system's scored gates, one row per moment."""
     from matplotlib.colors import LogNorm
 
-    from ..products.plot import STYLES
+    from ..products.moment_figures import STYLES
 
     names = [n for n in FIELDS if any(f"error_{n}" in s for _, s in panels)]
     fig = canvas(2.9 * len(panels) + 0.6, 2.6 * len(names))

@@ -6,7 +6,7 @@ output of kind ``range_response``; the waveforms are the blocks upstream of it t
 and emit one. Only those blocks run (once: none of them may depend on beams), twice: as the
 graph has them, and with every amplifier replaced by a wire (an ideal, linear transmitter).
 From the two range responses :func:`analyse` gives the figures of merit of
-:mod:`.compression` (``pasim waveform`` prints them, a study's hardware page shows them).
+:mod:`.pulse_compression` (``pasim waveform`` prints them, a study's hardware page shows them).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import xarray as xr
 from pasim_graph import Chunk, Graph
 
 from ..signals import SPEED_OF_LIGHT
-from .compression import power_efficiency, sidelobes, snr_loss_db
+from .pulse_compression import power_efficiency, sidelobes, snr_loss_db
 
 PULSE_KIND = "pulse"
 RESPONSE_KIND = "range_response"

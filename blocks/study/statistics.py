@@ -271,8 +271,8 @@ def score_study(
     (and verify the checksums of) every finished store again, so a study of N runs read
     N^2 / 2 stores. A store is read again only if its root metadata changed since (a store
     is completed, or repaired by ``--resume``, by rewriting it)."""
+    from .design_curves import sweep_summaries
     from .runner import finished
-    from .sweeps import sweep_summaries
 
     errors: dict[str, Errors] = {}
     kept = read if read is not None else {}

@@ -114,7 +114,7 @@ def is_rhi(sweep: xr.Dataset) -> bool:
 def rhi_mesh(sweep: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
     """Ground distance and height above the radar (km) of the gate corners of an RHI, along
     the 4/3-earth beam path (beams along ``elevation``)."""
-    from ..scans.beams import beam_height_m, ground_range_m
+    from ..scans.beam_geometry import beam_height_m, ground_range_m
 
     if "elevation" not in sweep.dims:
         raise ValueError("an RHI needs beams along elevation")

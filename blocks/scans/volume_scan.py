@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from pasim_graph import Param
+from pasim_graph.scores import mean_prt
 
 from ..timing import STAGGERS
 from .ppi import PPISector, sector_beams
@@ -40,8 +41,8 @@ class VolumeScan(PPISector):
     @classmethod
     def volume_cuts(cls, params: dict[str, Any]) -> tuple[list[Cut], list[tuple[str, str]]]:
         """The volume's cuts and the problems with ``preset`` and ``cuts``."""
-        preset = params.get("preset", cls.params["preset"].default) or ""
-        text = params.get("cuts", cls.params["cuts"].default) or ""
+        preset = cls.given(params, "preset") or ""
+        text = cls.given(params, "cuts") or ""
         known = ", ".join(PRESETS)
         if preset.strip() and text.strip():
             return [], [
@@ -69,11 +70,8 @@ class VolumeScan(PPISector):
         cuts, problems = cls.volume_cuts(params)
         if problems:
             return problems
-
-        def get(name: str) -> Any:
-            return params.get(name, cls.params[name].default)
-
-        start, stop = get("azimuth_start_deg"), get("azimuth_stop_deg")
+        start = cls.given(params, "azimuth_start_deg")
+        stop = cls.given(params, "azimuth_stop_deg")
         span = (stop - start) % 360.0 or 360.0
         out = []
         for n, cut in enumerate(cuts, start=1):
@@ -110,24 +108,21 @@ class VolumeScan(PPISector):
 
     @classmethod
     def scan_sweeps(cls, params: dict[str, Any]) -> list[dict[str, Any]]:
-        def get(name: str, values: dict[str, Any]) -> Any:
-            return values.get(name, cls.params[name].default)
-
         cuts, problems = cls.volume_cuts(params)
         if problems:
             raise ValueError("; ".join(f"{item}: {message}" for item, message in problems))
-        out, offset = [], float(get("time_offset_s", params))
+        out, offset = [], float(cls.given(params, "time_offset_s"))
         for cut in cuts:
             sweep = {**cls.cut_params(params, cut), "time_offset_s": offset}
             values = {**params, **sweep}
             n = sector_beams(
-                get("azimuth_start_deg", values),
-                get("azimuth_stop_deg", values),
-                get("beam_spacing_deg", values),
+                cls.given(values, "azimuth_start_deg"),
+                cls.given(values, "azimuth_stop_deg"),
+                cls.given(values, "beam_spacing_deg"),
             )
             prt = cut.prt_s
-            if get("stagger", values) != "uniform":
-                prt = prt * (1 + 1 / float(STAGGERS[get("stagger", values)])) / 2
+            if cls.given(values, "stagger") != "uniform":
+                prt = mean_prt(prt, float(STAGGERS[cls.given(values, "stagger")]))
             offset += n * cut.pulses * prt
             out.append(sweep)
         return out

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from .scores import FIELDS, robust_std, wrap
+from .statistics import FIELDS, robust_std, wrap
 
 
 class CompareError(Exception):

@@ -1,0 +1,119 @@
+"""The moment processors' base: what every one of them reads, declares and hands back.
+
+A processor (pulse-pair, spectral, staggered PRT, SZ-2, or a plugin's) turns one chunk of
+received I/Q into calibrated moments. Its inputs, censoring thresholds and output port are
+the same for all of them, so :class:`MomentProcessor` declares them once; so are the first
+step of ``process`` (:meth:`MomentProcessor.dwell`: the inputs unpacked, the PRT, wavelength
+and transmission read, the transmission checked) and the last (:meth:`MomentProcessor.
+moments_output`: the transmit differential phase removed from phi_DP, then the CfRadial Dataset of
+:func:`~pasim_blocks.processing.output.moments_dataset`). A processor writes the estimator
+between the two.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar, NamedTuple
+
+import numpy as np
+import xarray as xr
+
+from pasim_graph import Block, Chunk, Input, Output
+
+from ..signals import (
+    BEAMS,
+    CALIBRATION,
+    IQ,
+    MOMENT_FIELDS,
+    MOMENTS,
+    NOISE_POWER,
+    POLARIMETRIC_FIELDS,
+)
+from .output import Censoring, moments_dataset, thresholds
+
+
+class Dwell(NamedTuple):
+    """One chunk's inputs as a processor reads them."""
+
+    iq: np.ndarray  # beam x gate x pulse x channel (H, V)
+    noise: np.ndarray  # beam x gate x channel, W
+    calibration: xr.Dataset
+    beams: xr.Dataset
+    prt_s: float  # the first beam's PRT (T1 of a staggered scan)
+    wavelength_m: float
+    transmission: str  # "shv" (simultaneous) or "ahv" (alternate)
+    transmit_phidp_deg: float  # the system's differential phase on transmit
+    polarimetric: bool  # the run asked for ZDR, RHOHV or PHIDP
+    dual: bool  # ... and the calibration says the radar is dual-polarised
+
+
+class MomentProcessor(Censoring, Block):
+    """Base of the moment processors: the four inputs, the censoring thresholds and the
+    ``moments`` output declared once, and the shared first and last steps of ``process``.
+
+    A subclass sets :attr:`transmissions` to the transmission modes its estimators handle,
+    may re-declare ``moments`` to list the fields it writes, and implements ``process`` as
+    ``d = self.dwell(inputs, chunk)``, its estimates, then ``self.moments_output(est, ...)``.
+    """
+
+    #: Transmission modes (the calibration's ``transmission``) the estimators handle.
+    transmissions: ClassVar[tuple[str, ...]] = ("shv",)
+
+    iq = Input(IQ, doc="received I/Q")
+    noise_power = Input(NOISE_POWER, doc="noise power per channel")
+    calibration = Input(CALIBRATION, doc="radar constant and gate ranges")
+    beams = Input(BEAMS, doc="beam geometry (PRT, PRT ratio, transmit phases)")
+    moments = Output(MOMENTS, store="moments", doc="estimated moments", fields=MOMENT_FIELDS)
+
+    def setup(self) -> None:
+        self._threshold_db = thresholds(self.p)
+
+    def dwell(self, inputs: dict[str, Any], chunk: Chunk) -> Dwell:
+        """The chunk's inputs unpacked, with what every estimator needs read from them;
+        a transmission the processor does not handle is refused."""
+        cal, beams = inputs["calibration"], inputs["beams"]
+        mode = str(cal.attrs.get("transmission", "shv"))
+        if mode not in self.transmissions:
+            raise ValueError(
+                f"{self.type_name or type(self).__name__} handles transmission "
+                f"{' or '.join(self.transmissions)}; the weather channel's transmission is "
+                f"{mode!r}"
+            )
+        polarimetric = chunk.wants(*POLARIMETRIC_FIELDS)
+        return Dwell(
+            iq=inputs["iq"],
+            noise=inputs["noise_power"],
+            calibration=cal,
+            beams=beams,
+            prt_s=float(beams["prt"].values[0]),
+            wavelength_m=float(cal.attrs["wavelength_m"]),
+            transmission=mode,
+            transmit_phidp_deg=float(cal.attrs.get("transmit_differential_phase_deg", 0.0)),
+            polarimetric=polarimetric,
+            dual=bool(cal.attrs.get("dual_polarization", 1)) and polarimetric,
+        )
+
+    def moments_output(
+        self,
+        est: dict[str, np.ndarray],
+        noise_h: np.ndarray,
+        dwell: Dwell,
+        chunk: Chunk,
+        nyquist_ms: float,
+        **options: Any,
+    ) -> dict[str, Any]:
+        """The block's output from noise-corrected estimates (see
+        :func:`~pasim_blocks.processing.output.moments_dataset`, which ``options`` are passed
+        on to): phi_DP of simultaneous transmission calibrated for the known transmit
+        differential phase, phi_DP's period (180 deg for alternate transmission) recorded."""
+        beta = dwell.transmit_phidp_deg
+        if "PHIDP" in est and dwell.transmission == "shv" and beta:
+            # The system's differential phase on transmit is known: calibrated out.
+            est["PHIDP"] = np.mod(est["PHIDP"] - beta, 360.0)
+        attrs = {
+            "transmission": dwell.transmission,
+            "phidp_period_deg": 180.0 if dwell.transmission == "ahv" else 360.0,
+        }
+        ds = moments_dataset(
+            est, noise_h, dwell.calibration, chunk, self._threshold_db, nyquist_ms, attrs, **options
+        )
+        return {"moments": ds}
