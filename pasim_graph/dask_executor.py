@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import hashlib
 import json
 import math
 import os
@@ -118,9 +119,14 @@ def choose_chunk(n_beams: int, slots: int, most: int = MOST_BEAMS, overhead: flo
     return best
 
 
-def chunk_key(run: str, index: int) -> str:
-    """The Dask task key of one chunk: the same for the same run and chunk, every time."""
-    return f"pasim-chunk-{run}-{index}"
+def chunk_key(run: str, path: str | Path, index: int) -> str:
+    """The Dask task key of one chunk: the same for the same run, store and chunk, every time.
+
+    The store is part of it: a cluster runs a key once, for whoever asks first, so two runs
+    of one run key (a study's reference runs that several points share) in flight at once
+    into two stores would otherwise both be given the chunks written into the first one."""
+    where = hashlib.sha256(str(Path(path).resolve()).encode()).hexdigest()[:12]
+    return f"pasim-chunk-{run}-{where}-{index}"
 
 
 def check_scheduler(address: str, timeout_s: float = 3.0) -> None:
@@ -449,7 +455,7 @@ class DaskExecutor:
             if STOPPING.is_set():
                 # A run in another thread than the one signals stop (a study's runs at once).
                 raise Stopped(signal.SIGINT)
-            keys = {i: chunk_key(key, i) for i in todo}
+            keys = {i: chunk_key(key, path, i) for i in todo}
             if client is not None:
                 tasks = self._compute_distributed(
                     client.result(), todo, keys, starts, static, str(path), attrs
@@ -656,8 +662,13 @@ class DaskExecutor:
         if not todo:
             return []
         used = sorted({starts[i][0] for i in todo})
-        local = {k: client.scatter(self.sweeps[k], broadcast=True) for k in used}
-        shared = client.scatter(static, broadcast=True)
+        # Keys of this run's own (hash=False: fresh ones). The shared inputs go as one value
+        # ([static]): scatter takes a dict's own keys as the data's keys on the cluster, and
+        # every run's are the same ("mf", "range_response")...: with a study's runs in flight
+        # at once, one run's chunks computed with another run's inputs (the short-pulse
+        # reference got the sidelobe-free one's range response, silently).
+        local = {k: client.scatter(self.sweeps[k], broadcast=True, hash=False) for k in used}
+        [shared] = client.scatter([static], broadcast=True, hash=False)
         futures = [
             client.submit(
                 _run_and_write,
@@ -676,12 +687,17 @@ class DaskExecutor:
         from distributed.comm.core import CommClosedError
 
         try:
-            if self.progress:
-                # distributed's text bar writes to standard output, which holds the product
-                # (the score table): the bar goes to standard error like every message.
-                with contextlib.redirect_stdout(sys.stderr):
-                    progress(futures)
-            wait(futures)
+            # distributed's wait and progress find "the" client themselves: the latest one
+            # made in this process unless told, which with a study's runs in flight in
+            # threads is another run's, perhaps closing (a run then failed inside wait).
+            # This thread's current client is this run's.
+            with client.as_current():
+                if self.progress:
+                    # distributed's text bar writes to standard output, which holds the
+                    # product (the score table): the bar goes to standard error.
+                    with contextlib.redirect_stdout(sys.stderr):
+                        progress(futures)
+                wait(futures)
             # Re-raises a failed chunk's error here.
             return [f.result() for f in futures]
         except (FuturesCancelledError, CommClosedError, TimeoutError) as exc:

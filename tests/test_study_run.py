@@ -283,3 +283,53 @@ def test_a_run_store_damaged_on_disk_is_named_not_a_traceback(tmp_path, capsys, 
     else:
         assert code == 0, err
         assert scores(copy) == scores(study)  # the damaged run was written again
+
+
+def _store_values(path: Path) -> dict[str, np.ndarray]:
+    """Every array of a store by its path in the store (the per-chunk flags aside)."""
+    import zarr
+
+    out: dict[str, np.ndarray] = {}
+
+    def walk(group, prefix: str) -> None:
+        for name, array in group.arrays():
+            if name != "pasim_chunk_done":
+                out[prefix + name] = np.asarray(array[...])
+        for name, sub in group.groups():
+            walk(sub, f"{prefix}{name}/")
+
+    walk(zarr.open_group(str(path), mode="r"), "")
+    return out
+
+
+def test_a_study_with_every_run_in_flight_is_the_serial_study(tmp_path, study, monkeypatch):
+    """--workers 2 with all 8 runs in flight at once on the one cluster: every store holds
+    the values the serial study's holds, bit for bit, and scores.json is the same file.
+
+    Failed before each run's shared inputs were scattered under keys of its own: the
+    runs' inputs went to the cluster under the same keys (("mf", "range_response")...), and
+    the short-pulse reference was computed with another run's range response."""
+    import pasim_blocks.study.inflight as inflight
+
+    monkeypatch.setattr(inflight, "runs_at_once", lambda workers, scheduler: 8)
+    out = tmp_path / "out"
+    assert main(["study", str(STUDY), "--out", str(out), "--workers", "2"]) == 0
+    stores = sorted(p.relative_to(study) for p in (study / "runs").rglob("*.zarr"))
+    assert stores == sorted(p.relative_to(out) for p in (out / "runs").rglob("*.zarr"))
+    assert len(stores) == 8
+    for rel in stores:
+        ours, theirs = _store_values(out / rel), _store_values(study / rel)
+        assert ours.keys() == theirs.keys(), rel
+        for name in theirs:
+            assert np.array_equal(
+                ours[name], theirs[name], equal_nan=ours[name].dtype.kind in "fc"
+            ), (
+                rel,
+                name,
+            )
+    assert (out / "scores.json").read_text() == (study / "scores.json").read_text()
+    ours_m = json.loads((out / "pasim-study.json").read_text())
+    theirs_m = json.loads((study / "pasim-study.json").read_text())
+    assert list(ours_m["runs"]) == list(theirs_m["runs"])  # recorded in the study's order
+    for key in ("beamwidths", "patterns", "hardware"):
+        assert ours_m.get(key) == theirs_m.get(key), key
