@@ -32,7 +32,7 @@ def db(x):
 
 
 def system_table(out: Path) -> list[dict]:
-    from pasim_blocks.commands.pattern import build, measure
+    from pasim_blocks.antennas.beam_figures import build, measure
 
     from pasim_graph import load
 
@@ -169,9 +169,9 @@ def plot_quantisation_lobes(out: Path) -> None:
 
 def plot_zdr_bias(out: Path) -> dict:
     import matplotlib.pyplot as plt
+    from pasim_blocks.antennas.beam_figures import measure
     from pasim_blocks.antennas.cylindrical import CylindricalArray
     from pasim_blocks.antennas.planar import PlanarPatchArray
-    from pasim_blocks.commands.pattern import measure
 
     steers = np.arange(0.0, 46.0, 5.0)
     curves = {}
@@ -205,7 +205,7 @@ def plot_zdr_bias(out: Path) -> dict:
 def plot_zdr_coupling(out: Path) -> dict:
     """ATD's ZDR bias and scan loss with steering: isolated patch against embedded elements."""
     import matplotlib.pyplot as plt
-    from pasim_blocks.commands.pattern import build, measure
+    from pasim_blocks.antennas.beam_figures import build, measure
 
     from pasim_graph.graph import load
 

@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import sys
 
+from pasim_blocks.antennas.beam_figures import measure
 from pasim_blocks.antennas.cylindrical import CylindricalArray
 from pasim_blocks.antennas.planar import PlanarPatchArray
-from pasim_blocks.commands.pattern import measure
 
 ELEMENTS = ("patch", "isotropic", "crossed_dipole")
 

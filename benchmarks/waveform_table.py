@@ -14,10 +14,10 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from pasim_blocks.commands.waveform import analyse
 from pasim_blocks.receivers.filters import MatchedFilter, MismatchedFilter
 from pasim_blocks.signals import SPEED_OF_LIGHT
 from pasim_blocks.transmitters.amplifiers import RappAmplifier, SalehAmplifier
+from pasim_blocks.waveforms.chain import analyse
 from pasim_blocks.waveforms.compression import power_efficiency, sidelobes
 from pasim_blocks.waveforms.nlfm import gaussian_log_density, stationary_phase
 from pasim_blocks.waveforms.pulses import LinearFM, NonlinearFM, pulse_dataset

@@ -298,6 +298,13 @@ CALIBRATION = PortType(
                 "expected power of the other trips over the gate's own (range folding)",
                 required=False,
             ),
+            "path_attenuation_db": Var(
+                "float64",
+                ("beam", "range", "polarization"),
+                "dB",
+                "two-way path attenuation along the beam's axis (propagation on)",
+                required=False,
+            ),
             "range": Var("float64", ("range",), "meters", "gate centre ranges"),
             "polarization": Var("str", ("polarization",), "", "H, V"),
         },

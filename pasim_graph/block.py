@@ -117,6 +117,11 @@ class Block:
     #: Settings that trade speed for accuracy, as (label, parameter values) pairs, fastest
     #: first and most faithful last. ``pasim tradeoff`` runs a graph at each of them.
     fidelity_ladder: ClassVar[tuple[tuple[str, dict[str, Any]], ...]] = ()
+    #: The parameter that chooses the block's fidelity level (``""``: the block has none), and
+    #: the one of its choices that computes expected values, drawing no noise (``""``: none).
+    #: A study's reference runs set every block that declares ``expected_level`` to it.
+    fidelity_param: ClassVar[str] = ""
+    expected_level: ClassVar[str] = ""
 
     #: Attributes that only memoise derived data: dropped when a block is pickled (sent to a
     #: worker), and rebuilt there on first use.
@@ -209,6 +214,21 @@ class Block:
         default is one sweep with the graph's parameters."""
         return [{}]
 
+    @classmethod
+    def steering_problems(
+        cls, params: dict[str, Any], azimuth_deg: np.ndarray, elevation_deg: np.ndarray
+    ) -> list[tuple[str, str]]:
+        """Beams of the scan this block cannot point at (a steerable antenna's), as
+        ``(item, message)`` pairs; empty when it reaches them all (the default).
+
+        ``params`` holds the valid values given in the graph (defaults not filled in), the
+        arrays the azimuth and elevation (deg) of every beam of one sweep. Validation calls it
+        with the scan's nominal beams and the executor with the beams as aligned to the truth,
+        before any chunk runs, so that a run or a study is refused before any work rather than
+        failing on its first beam.
+        """
+        return []
+
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         raise NotImplementedError
 
@@ -227,6 +247,7 @@ class Block:
                 out.append(
                     (f"port '{port.name}'", f"{side} carries a dataset but declares no schema")
                 )
+        out += cls._fidelity_problems()
         for o in cls.outputs.values():
             schema = o.type.schema
             missing = [f for f in o.fields if schema is None or f not in schema.variables]
@@ -238,6 +259,28 @@ class Block:
                     )
                 )
         return out
+
+    @classmethod
+    def _fidelity_problems(cls) -> list[tuple[str, str]]:
+        """The fidelity declaration names a parameter of the block, and the expected level is
+        one of that parameter's choices."""
+        if not cls.fidelity_param:
+            return (
+                [("expected_level", "is set but fidelity_param names no parameter")]
+                if cls.expected_level
+                else []
+            )
+        decl = cls.params.get(cls.fidelity_param)
+        if decl is None:
+            return [("fidelity_param", f"{cls.fidelity_param!r} is not a parameter of the block")]
+        if cls.expected_level and cls.expected_level not in (decl.choices or ()):
+            return [
+                (
+                    "expected_level",
+                    f"{cls.expected_level!r} is not a choice of parameter {cls.fidelity_param!r}",
+                )
+            ]
+        return []
 
     @classmethod
     def runs_per_chunk(cls) -> bool:

@@ -19,39 +19,24 @@ from typing import Any
 from . import __version__, registry
 from .block import RunNote
 from .block_reference import cmd_blocks
-from .graph import Graph, GraphError, resolve
+from .command_api import (
+    UserError,
+    add_graph_arguments,
+    graph_and_overrides,
+    load_graph,
+    parse_seed,
+)
+from .graph import Graph, GraphError
 from .interrupt import StopMessage, Stopped, stop_on_signals
 from .outputs import write_atomic
 from .serialize import json_safe
 
 EXIT_USAGE = 2
 
-#: The options that :func:`pasim_graph.graph.resolve` names in its problems.
-OPTIONS = {"set": "--set", "truth": "--truth", "sector": "--sector"}
-
-
-class UserError(Exception):
-    """A problem the user can fix; printed without a traceback."""
-
-
-def _graph(args: argparse.Namespace) -> Graph:
-    return _graph_and_overrides(args)[0]
-
-
-def _graph_and_overrides(args: argparse.Namespace) -> tuple[Graph, dict[str, Any]]:
-    """The validated graph and the overrides (``--set``, ``--truth``, ``--sector``) it got."""
-    return resolve(
-        args.graph,
-        settings=getattr(args, "set", None) or [],
-        truth=getattr(args, "truth", None),
-        sector=getattr(args, "sector", None),
-        labels=OPTIONS,
-    )
-
 
 def cmd_validate(args: argparse.Namespace) -> int:
     try:
-        graph = _graph(args)
+        graph = load_graph(args)
     except GraphError as exc:
         if args.json:
             print(
@@ -79,9 +64,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     from .executor import BlockError, RunOptions
     from .provenance import provenance
     from .scores import print_volume, volume_scores
+    from .steering import SteeringError
     from .store import StoreError, StoreExistsError, open_volume
 
-    graph = _graph(args)
+    graph = load_graph(args)
     out = Path(args.out)
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     if args.workers and cores and args.workers > cores:
@@ -149,6 +135,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.debug:
             raise
         raise UserError(f"{args.graph}: {exc} (rerun with --debug for the traceback)") from None
+    except SteeringError as exc:
+        raise UserError(str(exc)) from None
     except (StoreError, StoreExistsError, ResumeError, ResourceError, SchedulerError) as exc:
         raise UserError(f"{out}: {exc}" if isinstance(exc, SchedulerError) else str(exc)) from None
     dt = time.perf_counter() - t0
@@ -199,7 +187,7 @@ def _fields(text: str | None, graph: Graph) -> tuple[str, ...] | None:
 def cmd_tradeoff(args: argparse.Namespace) -> int:
     from .tradeoff import TradeoffError, format_table, ladder, ladder_keys, tradeoff
 
-    graph, overrides = _graph_and_overrides(args)
+    graph, overrides = graph_and_overrides(args)
     labels = None
     if args.levels is not None:
         labels = [x.strip() for x in args.levels.split(",") if x.strip()]
@@ -405,50 +393,6 @@ def _may_need_plugins(argv: list[str] | None, builtin: set[str]) -> bool:
     return first not in builtin
 
 
-def add_graph_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options that change a graph as it is read: ``--truth``, ``--sector``, ``--set``.
-
-    For commands of plugin packages too, which then get the graph with :func:`load_graph`.
-    """
-    parser.add_argument(
-        "--truth",
-        metavar="FILE",
-        help="truth file for the truth block: NEXRAD Level-II, or a radar file xradar reads "
-        "(CfRadial 1, a CfRadial 2 Zarr store, ODIM_H5, GAMIC, IRIS/Sigmet, UF, Rainbow, "
-        "Furuno); for truth.grid a gridded netCDF file or Zarr store",
-    )
-    parser.add_argument(
-        "--sector",
-        metavar="AZ0:AZ1",
-        help="azimuth sector in degrees clockwise for the scan block, e.g. 240:330; 350:10 "
-        "(or -10:10) passes through north, 0:360 is the full circle",
-    )
-    parser.add_argument(
-        "--set",
-        action="append",
-        metavar="BLOCK.PARAM=VALUE",
-        help="override a block parameter (repeatable)",
-    )
-
-
-def load_graph(args: argparse.Namespace) -> Graph:
-    """The validated graph of a command's arguments (raises GraphError, printed as usual)."""
-    return _graph(args)
-
-
-def parse_seed(text: str) -> int:
-    """argparse type of a run seed (a whole number >= 0), for plugin commands too."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, found {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(
-            f"the seed must be a whole number >= 0 (random streams are keyed by it), found {value}"
-        )
-    return value
-
-
 def _positive(option: str) -> Any:
     def parse(text: str) -> int:
         try:
@@ -465,8 +409,9 @@ def _positive(option: str) -> Any:
 def _add_plugin_commands(sub: Any) -> None:
     """Subcommands that packages register in the ``pasim_graph.commands`` entry-point group.
 
-    Each entry point names an object with ``help`` (one line), ``configure(parser)`` and
-    ``run(args) -> int``; it raises :class:`UserError` for what the user can fix. The block
+    Each entry point names a :class:`pasim_graph.command_api.Command` (``help``,
+    ``configure(parser)``, ``run(args) -> int``); it raises :class:`UserError` for what the
+    user can fix. The block
     library's ``pasim waveform`` and ``pasim pattern`` come this way, so the engine never
     imports it. A command that fails to load warns and is left out.
     """
@@ -495,7 +440,7 @@ def cmd_studio(args: argparse.Namespace) -> int:
 def cmd_graph(args: argparse.Namespace) -> int:
     from .graph_export import FORMATS, view
 
-    graph = _graph(args)
+    graph = load_graph(args)
     text = FORMATS[args.format](view(graph.spec, Path(args.graph).stem))
     if args.out:
         write_atomic(args.out, text)

@@ -439,6 +439,8 @@ class DaskExecutor:
             # The sweeps share their blocks' resources (one dict): read once.
             record.timed("load", self.local.load)
             static = record.timed("static", self.local.run_static)
+            for sweep in self.sweeps:
+                sweep.check_steering(static, len(self.sweeps))
             if state is None:
                 on_target = record.timed(
                     "layout", self._lay_out, path, lock, static, attrs, len(starts)

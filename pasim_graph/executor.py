@@ -21,6 +21,7 @@ import xarray as xr
 from .block import Block, Chunk
 from .graph import Graph
 from .ports import BEAM_DIM
+from .steering import check_beams, steerers
 
 
 class BlockError(RuntimeError):
@@ -208,6 +209,12 @@ class LocalExecutor:
         self._run_block(source, values, np.arange(p.beam_count))
         return next(v for (b, _), v in values.items() if b == source)
 
+    def check_steering(self, static: dict[tuple[str, str], Any], n_sweeps: int = 1) -> None:
+        """Refuse beams a block cannot point at (:mod:`.steering`), before any chunk: the
+        beams as aligned to the truth, which validation saw only as nominal."""
+        if steerers(self.plan.graph):
+            check_beams(self.plan.graph, self.sweep, n_sweeps, self.beam_geometry(static))
+
     def run_static(self) -> dict[tuple[str, str], Any]:
         values: dict[tuple[str, str], Any] = {}
         for name in self.plan.static:
@@ -244,6 +251,7 @@ class LocalExecutor:
         if not self.plan.resources:
             self.load()
         static = self.run_static()
+        self.check_steering(static)
         parts: list[list[xr.Dataset]] = []
         every = list(chunks(self.plan.beam_count, self.options.chunk_beams))
         for beams in every:

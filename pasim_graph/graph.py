@@ -28,6 +28,7 @@ from .graphfile import (
     parse_value,
     read,
 )
+from .steering import nominal_problems
 
 
 class GraphError(Exception):
@@ -397,7 +398,12 @@ def validate(spec: GraphSpec, overrides: dict[str, Any] | None = None) -> Graph:
         )
     if problems:
         raise GraphError(problems)
-    return Graph(spec, classes, params, edges)
+    graph = Graph(spec, classes, params, edges)
+    # Beams a block cannot point at (behind a planar face): refused before any run.
+    steering = nominal_problems(graph)
+    if steering:
+        raise GraphError(steering)
+    return graph
 
 
 def _check_params(

@@ -15,6 +15,7 @@ from importlib.metadata import EntryPoint, entry_points
 from typing import Any
 
 from .block import TYPE_NAMES, Block
+from .contracts import Command, abstract_methods, command_problems
 
 GROUP = "pasim_graph.blocks"
 #: Entry-point group of command-line subcommands from plugin packages (``pasim waveform``).
@@ -79,6 +80,11 @@ def get(name: str) -> type[Block] | None:
             obj = ep.load()
             if not (isinstance(obj, type) and issubclass(obj, Block)):
                 raise TypeError(f"{ep.value} is not a pasim_graph.Block subclass")
+            missing = abstract_methods(obj)
+            if missing:
+                # A block written against a declared base (an antenna, ...) that leaves out
+                # one of its methods is refused here, naming the method, not at its first use.
+                raise TypeError(f"{ep.value} does not define {missing}")
             cls = obj
             # The first name a class is loaded under stays its name: a plugin that registers
             # a library class under a second name does not rename the library's class.
@@ -109,17 +115,19 @@ def closest(name: str, n: int = 3) -> list[str]:
 
 
 @lru_cache(maxsize=1)
-def commands() -> dict[str, Any]:
-    """Subcommands registered by packages, by name (those that fail to load warn)."""
-    out: dict[str, Any] = {}
+def commands() -> dict[str, Command]:
+    """Subcommands registered by packages, by name: each a
+    :class:`~pasim_graph.command_api.Command`; one that fails to load or is not a command
+    warns, naming what it lacks, and is left out."""
+    out: dict[str, Command] = {}
     for ep in sorted(entry_points(group=COMMANDS), key=lambda e: (e.name, e.value)):
         if ep.name in out:
             continue
         try:
             command = ep.load()
-            for attr in ("help", "configure", "run"):
-                if not hasattr(command, attr):
-                    raise TypeError(f"{ep.value} has no {attr!r}")
+            problems = command_problems(command)
+            if problems:
+                raise TypeError(f"{ep.value} is not a pasim command: {'; '.join(problems)}")
         except Exception as exc:  # a broken plugin must not break the command line
             warnings.warn(
                 f"command plugin {ep.name!r} ({ep.value}) failed to load: "

@@ -24,6 +24,7 @@ import re
 import numpy as np
 import pytest
 import xarray as xr
+from pasim_blocks.antennas.beam_figures import measure
 from pasim_blocks.antennas.coupling import (
     PORTS,
     LatticeCoupling,
@@ -33,7 +34,6 @@ from pasim_blocks.antennas.coupling import (
 )
 from pasim_blocks.antennas.elements import PatchElement
 from pasim_blocks.antennas.planar import PlanarPatchArray
-from pasim_blocks.commands.pattern import measure
 from pasim_blocks.signals import SPEED_OF_LIGHT
 
 from pasim_graph import Chunk

@@ -298,7 +298,7 @@ def test_planar_zdr_bias_grows_with_steering_and_is_the_two_way_ratio() -> None:
     sin(el_b) tan(az_s)), g the one-way V/H amplitude ratio at the peak, checked within 10 %
     on DBZH (SHV minus AHV), with a random level (combined) at 45 deg within 3 standard
     errors."""
-    from pasim_blocks.commands.pattern import measure
+    from pasim_blocks.antennas.beam_figures import measure
 
     block = PlanarPatchArray(**PLANAR)
     steers = np.array([0.0, 15.0, 30.0, 45.0])

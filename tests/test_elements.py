@@ -102,7 +102,7 @@ def test_leakage_adds_the_other_port() -> None:
 def test_array_cross_polar_level_is_the_leakage() -> None:
     """80 x 80 patches with -30 dB leakage, at broadside: the cross-polar peak in the main beam
     is -30 dB (to 0.05 dB) for both ports, from the pattern command's measurement."""
-    from pasim_blocks.commands.pattern import measure
+    from pasim_blocks.antennas.beam_figures import measure
 
     block = PlanarPatchArray(name="a", cross_pol_db=-30.0, cross_pol_phase_deg=25.0)
     m = measure(block, 0.0, 0.0, span_deg=5.0)

@@ -21,9 +21,9 @@ import json
 
 import numpy as np
 import pytest
+from pasim_blocks.antennas.beam_figures import build, measure
 from pasim_blocks.antennas.cylindrical import CylindricalArray
 from pasim_blocks.antennas.planar import PlanarPatchArray
-from pasim_blocks.commands.pattern import build, measure
 
 from pasim_graph import load
 

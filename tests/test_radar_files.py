@@ -12,8 +12,9 @@ What each test compares against:
   ODIM (DBZH, TH, VRADH) runs single polarisation and without width and says so; UF RHIs are
   refused by name (the truth block reads PPIs by elevation); a Radx CfRadial 1 file and a
   Rainbow volume read; a file no backend reads names each format tried;
-* IRIS runs and scores all six moments: the IRIS file of ``../shared/data`` (no library
-  writes IRIS, so there is no small sample; skipped where it is absent).
+* IRIS runs and scores all six moments: the sample of ``tests/fixtures/truth``, the first
+  40 rays (0-40 deg) and 300 gates (to 90 km) of the public file, cut by
+  ``make_iris_sample.py`` there.
 """
 
 from __future__ import annotations
@@ -21,25 +22,16 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pytest
 import xarray as xr
 
-from .conftest import FIXTURES, GRAPHS, ROOT, pasim_out
+from .conftest import FIXTURES, GRAPHS, pasim_out
 
-SHARED = ROOT.parent / "shared" / "data"
 GENERIC = str(GRAPHS / "generic_radar.yaml")
 
 
 def sample(name: str):
     """A sample truth file of tests/fixtures/truth (in the repository: never skipped)."""
     return FIXTURES / "truth" / name
-
-
-def shared(name: str):
-    path = SHARED / name
-    if not path.exists():
-        pytest.skip(f"{path} is not here (../shared/data)")
-    return path
 
 
 def test_field_names_map_onto_the_six_moments():
@@ -134,10 +126,10 @@ def test_a_cfradial_file_scores_as_the_level2_file_at_the_expected_level(tmp_pat
 
 
 def test_iris_sigmet_runs_and_scores_all_six_moments(tmp_path, capsys):
-    path = shared("SUR210819000227.RAWKPJV")
+    path = sample("SUR210819000227_40rays_300gates.RAWKPJV")
     out = tmp_path / "iris.zarr"
     code, _, err = pasim_out(
-        capsys, "run", GENERIC, "--truth", str(path), "--sector", "0:10", "--out", str(out)
+        capsys, "run", GENERIC, "--truth", str(path), "--sector", "10:20", "--out", str(out)
     )
     assert code == 0, err
     assert "single polarisation" not in err

@@ -1,5 +1,5 @@
 """``pasim spectrum`` and the amplifiers' rise and fall edges (``blocks/commands/spectrum.py``,
-``blocks/transmitters/emission.py``, ``amplifiers.py``).
+``blocks/transmitters/radiated.py``, ``emission.py``, ``amplifiers.py``).
 
 What each test compares against:
 
@@ -21,13 +21,13 @@ import json
 
 import numpy as np
 import pytest
-from pasim_blocks.commands.spectrum import analyse
 from pasim_blocks.transmitters.amplifiers import RAMP_10_90, SalehAmplifier, edge_gate
 from pasim_blocks.transmitters.emission import (
     mask_db,
     rise_fall_times,
     rsec_criteria,
 )
+from pasim_blocks.transmitters.radiated import analyse
 from pasim_blocks.waveforms.pulses import pulse_dataset
 
 from pasim_graph import Chunk, load

@@ -227,6 +227,8 @@ def test_a_signalled_study_ends_with_one_line_and_resumes(tmp_path, study, sig):
     assert proc.returncode == 128 + sig, err
     assert "Traceback" not in err and f"stopped by {signal.Signals(sig).name}" in err, err
     assert "--resume" in err
+    # The systems the stopped study could not score yet are named (the second had no run).
+    assert "warning: system 'wide' is unscored: 0 of its" in err, err
     assert not list(out.rglob("pasim-run.lock"))
     res = subprocess.run([*cmd, "--resume"], capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr

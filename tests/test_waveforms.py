@@ -21,7 +21,7 @@ import json
 
 import numpy as np
 import pytest
-from pasim_blocks.commands.waveform import ChainError, analyse, find_chain
+from pasim_blocks.waveforms.chain import ChainError, analyse, find_chain
 
 from pasim_graph import load
 

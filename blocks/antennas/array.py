@@ -7,9 +7,10 @@ from typing import Any, ClassVar, TypeVar, cast
 import numpy as np
 import xarray as xr
 
-from pasim_graph import Block, Input, Output
+from pasim_graph import Input, Output
 
 from ..signals import BEAMS, PATTERN
+from .antenna import Antenna
 from .base import (
     AMPLITUDE_ERROR,
     ATTENUATOR_BITS,
@@ -32,7 +33,7 @@ from .base import (
 _A = TypeVar("_A", bound="ArrayAntenna")
 
 
-class ArrayAntenna(Block):
+class ArrayAntenna(Antenna):
     """Base of the electronically steered arrays: element, channel electronics, calibration.
 
     Subclasses implement ``fields_at`` (one-way complex fields of both ports at absolute
@@ -118,19 +119,9 @@ class ArrayAntenna(Block):
         """Broadside directivity of the ideal array, which the patterns are normalised to."""
         return float(self.gain_db)
 
-    def broadside(self) -> tuple[float, float]:
-        raise NotImplementedError
-
-    def fields_at(
-        self,
-        steer_az_deg: float,
-        steer_el_deg: float,
-        az_deg: np.ndarray,
-        el_deg: np.ndarray,
-        seed: int = 0,
-        resource: Any = None,
-    ) -> Any:
-        raise NotImplementedError
+    def ideal_copy(self) -> ArrayAntenna | None:
+        """The same array with ideal channel electronics (None: its electronics are ideal)."""
+        return None if self.channel.ideal else ideal_copy(self)
 
     def draw(self, seed: int) -> Any:
         """The channel errors of the array built with run seed ``seed`` (None: no random part)."""

@@ -86,6 +86,44 @@ def face_direction_cosines(
     return np.array(u), np.array(v), np.array(w)
 
 
+def behind_face(
+    az_deg: np.ndarray, el_deg: np.ndarray, face_azimuth_deg: float, face_tilt_deg: float
+) -> str | None:
+    """The beams of a scan that lie behind a face (no steering reaches them), in words with
+    what the face reaches; None when every beam is in front of it."""
+    _, _, w = face_direction_cosines(
+        az_deg, el_deg, face_azimuth_deg=face_azimuth_deg, face_tilt_deg=face_tilt_deg
+    )
+    behind = ~(w > 0.0)
+    if not behind.any():
+        return None
+    # Azimuths behind the face lie within 90 deg of its back: measured from there, they
+    # neither wrap through north nor through the back, so their extremes are the span.
+    back = (face_azimuth_deg + 180.0) % 360.0
+    rel = (np.asarray(az_deg, float)[behind] - back + 180.0) % 360.0 - 180.0
+    el = np.asarray(el_deg, float)[behind]
+    first, last = (back + rel.min()) % 360.0, (back + rel.max()) % 360.0
+    span = f"{first:.1f}" if first == last else f"{first:.1f} to {last:.1f}"
+    els = f"{el.min():.1f}" if el.min() == el.max() else f"{el.min():.1f} to {el.max():.1f}"
+    # In front: w = cos(el) cos(tilt) cos(daz) + sin(el) sin(tilt) > 0 at the lowest elevation.
+    low = np.deg2rad(el.min())
+    tilt = np.deg2rad(face_tilt_deg)
+    bound = -np.tan(low) * np.tan(tilt)
+    if bound >= 1.0:
+        reach = f"no azimuth at elevation {el.min():.1f} deg"
+    elif bound <= -1.0:
+        reach = f"every azimuth at elevation {el.min():.1f} deg"
+    else:
+        half = float(np.rad2deg(np.arccos(bound)))
+        lo, hi = (face_azimuth_deg - half) % 360.0, (face_azimuth_deg + half) % 360.0
+        reach = f"azimuth {lo:.1f} to {hi:.1f} deg (clockwise) at elevation {el.min():.1f} deg"
+    return (
+        f"{int(behind.sum())} of the scan's {behind.size} beams, azimuth {span} deg at "
+        f"elevation {els} deg, are behind the face (normal at azimuth {face_azimuth_deg:g} "
+        f"deg, tilt {face_tilt_deg:g} deg), which steers only in front of it: {reach}"
+    )
+
+
 class DualPolField(NamedTuple):
     """Far-field components of the two ports of a dual-polarised element or array.
 

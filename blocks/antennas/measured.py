@@ -8,14 +8,15 @@ from typing import Any
 
 import numpy as np
 
-from pasim_graph import Block, Chunk, Input, Output, Param
+from pasim_graph import Chunk, Input, Output, Param
 
 from ..signals import BEAMS, PATTERN, POLARIZATIONS
+from .antenna import Antenna
 from .base import offsets, pattern_dataset, two_way_solid_angle
 from .pattern_files import TabulatedPattern, read_pattern_file
 
 
-class MeasuredAntenna(Block):
+class MeasuredAntenna(Antenna):
     """A mechanically steered antenna whose pattern is read from a file (measured or simulated).
 
     The file gives both ports' co- and cross-polar complex gains around the boresight (format

@@ -7,13 +7,14 @@ from typing import Any
 
 import numpy as np
 
-from pasim_graph import Block, Chunk, Input, Output, Param
+from pasim_graph import Chunk, Input, Output, Param
 
 from ..signals import BEAMS, PATTERN, POLARIZATIONS
+from .antenna import Antenna
 from .base import PATTERN_SUPPORT, offsets, pattern_dataset, two_way_solid_angle
 
 
-class AxisymmetricAntenna(Block):
+class AxisymmetricAntenna(Antenna):
     """Base of antennas whose pattern depends only on the angle off the beam axis.
 
     Subclasses give ``amplitude_off_axis(theta_deg)`` (the one-way field, 1 on the axis); the

@@ -105,6 +105,20 @@ class PlanarPatchArray(ArrayAntenna):
             )
         return out
 
+    @classmethod
+    def steering_problems(
+        cls, params: dict[str, Any], azimuth_deg: np.ndarray, elevation_deg: np.ndarray
+    ) -> list[tuple[str, str]]:
+        from .geometry import behind_face
+
+        def get(name: str) -> Any:
+            return params.get(name, cls.params[name].default)
+
+        text = behind_face(
+            azimuth_deg, elevation_deg, float(get("face_azimuth_deg")), float(get("face_tilt_deg"))
+        )
+        return [] if text is None else [("steering", text)]
+
     def setup(self) -> None:
         from ..signals import SPEED_OF_LIGHT
         from .tapers import taper_efficiency

@@ -47,7 +47,7 @@ class CompareCommand:
         )
 
     def run(self, args: argparse.Namespace) -> int:
-        from pasim_graph.cli import UserError
+        from pasim_graph.command_api import UserError
 
         from ..study.compare import CompareError, compare, names, read_store
 
@@ -77,7 +77,7 @@ class CompareCommand:
 
     def score(self, args: argparse.Namespace) -> int:
         """``pasim score STORE [--against REF.zarr] [--by azimuth[:BIN]]``."""
-        from pasim_graph.cli import UserError
+        from pasim_graph.command_api import UserError
 
         from ..study.compare import CompareError, by_azimuth, parse_by, read_store, score_against
 

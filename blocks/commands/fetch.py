@@ -23,7 +23,7 @@ class FetchCommand:
         )
 
     def run(self, args: argparse.Namespace) -> int:
-        from pasim_graph.cli import UserError
+        from pasim_graph.command_api import UserError
 
         from ..truth.archive import ArchiveError, fetch, parse_time
 

@@ -4,7 +4,8 @@ Azimuth and elevation cuts through the beam (one-way, H and V, co- and cross-pol
 3-dB beamwidths, first and peak sidelobes, peak gain, the peak cross-polar level in the main
 beam and the two-way H/V ratio at the peak (the ZDR bias the pattern causes), for the array
 as built (channel errors drawn from ``--seed``, as ``pasim run --seed`` draws them) and, when
-it has electronics, for the ideal array beside it.
+it has electronics, for the ideal array beside it. The measuring is
+:mod:`pasim_blocks.antennas.beam_figures`; this module parses, calls and prints.
 """
 
 from __future__ import annotations
@@ -17,12 +18,18 @@ from typing import Any
 
 import numpy as np
 
+from pasim_graph.command_api import UserError, add_graph_arguments, load_graph, parse_seed
 from pasim_graph.outputs import write_atomic
 from pasim_graph.serialize import json_safe
 
-#: Main beam for the cross-polar level: where the port's co-polar power is within this of its
-#: peak (dB).
-MAIN_BEAM_DB = 20.0
+from ..antennas.beam_figures import (
+    antenna_blocks,
+    build,
+    measure,
+    measure_as_built,
+    steer_from_broadside,
+)
+from .reporting import report
 
 
 def _steer(text: str) -> tuple[float, float]:
@@ -47,109 +54,10 @@ def _span(text: str) -> float:
     return value
 
 
-def antenna_blocks(graph: Any) -> list[str]:
-    """Names of the graph's blocks that output an antenna pattern."""
-    return sorted(
-        name
-        for name, cls in graph.classes.items()
-        if any(port.type.kind == "pattern" for port in cls.outputs.values())
-    )
-
-
-def build(graph: Any, name: str, **overrides: Any) -> Any:
-    """The block ``name`` of ``graph`` with its parameters (and ``overrides``), loaded."""
-    cls = graph.classes[name]
-    block = cls(name=name, **{**graph.params[name], **overrides})
-    if not hasattr(block, "fields_at"):
-        raise ValueError(f"block {name!r} ({cls.type_name}) cannot evaluate its pattern here")
-    return block
-
-
-def measure(
-    block: Any,
-    steer_az_deg: float,
-    steer_el_deg: float,
-    *,
-    seed: int = 0,
-    resource: Any = None,
-    span_deg: float = 90.0,
-    step_deg: float | None = None,
-) -> dict[str, Any]:
-    """Cuts and figures of merit of ``block``'s beam steered (az, el) from its broadside."""
-    from ..antennas.measures import half_power_beamwidth_deg, peak_sidelobe_db
-
-    if hasattr(block, "prepare"):
-        block.prepare(resource)
-    az0, el0 = block.broadside()
-    az_b, el_b = az0 + steer_az_deg, el0 + steer_el_deg
-    step = step_deg or min(0.01, span_deg / 2000)
-    d = np.arange(-span_deg, span_deg + step / 2, step)
-    d_el = d[(el_b + d > -90) & (el_b + d < 90)]
-
-    def cut(az: np.ndarray, el: np.ndarray) -> dict[str, np.ndarray]:
-        f = block.fields_at(az_b, el_b, az, el, seed, resource)
-        return {k: np.abs(np.asarray(getattr(f, k))) ** 2 for k in f._fields}
-
-    az_cut = cut(az_b + d, np.full(d.size, el_b))
-    el_cut = cut(np.full(d_el.size, az_b), el_b + d_el)
-    bw_az = half_power_beamwidth_deg(d, az_cut["h_co"])
-    bw_el = half_power_beamwidth_deg(d_el, el_cut["h_co"])
-    # The main beam in 2-D, for the peak gain, the cross-polar level and the H/V ratio (the
-    # geometric cross-polar field vanishes in the principal cuts).
-    half = 1.5 * max(bw_az, bw_el)
-    g = np.linspace(-half, half, 61)
-    f = block.fields_at(az_b, el_b, az_b + g[None, :], el_b + g[:, None], seed, resource)
-    shape = (g.size, g.size)
-    power = {k: np.broadcast_to(np.abs(np.asarray(getattr(f, k))) ** 2, shape) for k in f._fields}
-    peak = np.unravel_index(int(np.argmax(power["h_co"])), shape)
-    cross = []
-    for co, x in (("h_co", "h_cross"), ("v_co", "v_cross")):
-        main = power[co] >= power[co].max() * 10 ** (-MAIN_BEAM_DB / 10)
-        cross.append(float(power[x][main].max() / power[co].max()))
-    gain_db = float(block.pattern_gain_db(resource))
-    with np.errstate(divide="ignore"):
-        result = {
-            "beamwidth_az_deg": bw_az,
-            "beamwidth_el_deg": bw_el,
-            "first_sidelobe_db": first_sidelobe_db(d, az_cut["h_co"]),
-            "first_sidelobe_el_db": first_sidelobe_db(d_el, el_cut["h_co"]),
-            "peak_sidelobe_db": max(
-                peak_sidelobe_db(d, az_cut["h_co"]), peak_sidelobe_db(d_el, el_cut["h_co"])
-            ),
-            "peak_gain_dbi": gain_db + float(10 * np.log10(power["h_co"][peak])),
-            "cross_pol_db": float(10 * np.log10(max(cross))),
-            "zdr_bias_db": float(20 * np.log10(power["h_co"][peak] / power["v_co"][peak])),
-            "beamwidth_az_v_deg": half_power_beamwidth_deg(d, az_cut["v_co"]),
-            "first_sidelobe_v_db": first_sidelobe_db(d, az_cut["v_co"]),
-            "peak_sidelobe_v_db": max(
-                peak_sidelobe_db(d, az_cut["v_co"]), peak_sidelobe_db(d_el, el_cut["v_co"])
-            ),
-            "cross_pol_h_db": float(10 * np.log10(cross[0])),
-            "cross_pol_v_db": float(10 * np.log10(cross[1])),
-            "gain_db": gain_db,
-            "beam_azimuth_deg": float(az_b % 360.0),
-            "beam_elevation_deg": float(el_b),
-        }
-    result["cuts"] = {"azimuth": (d, az_cut), "elevation": (d_el, el_cut)}  # type: ignore[assignment]
-    return result
-
-
-def first_sidelobe_db(angles_deg: np.ndarray, power: np.ndarray) -> float:
-    """The first sidelobe of a cut, NaN when the cut holds none (too short a span)."""
-    from ..antennas.measures import first_sidelobe_db as measure_first
-
-    try:
-        return measure_first(angles_deg, power)
-    except ValueError:
-        return float("nan")
-
-
 class PatternCommand:
     help = "measure a graph's antenna pattern: beamwidths, sidelobes, gain, cross-pol, ZDR bias"
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
-        from pasim_graph.cli import add_graph_arguments, parse_seed
-
         parser.add_argument("graph", help="graph file")
         parser.add_argument(
             "--steer",
@@ -182,10 +90,6 @@ class PatternCommand:
         add_graph_arguments(parser)
 
     def run(self, args: argparse.Namespace) -> int:
-        from pasim_graph.cli import UserError, load_graph
-
-        from ..antennas.array import ideal_copy
-
         graph = load_graph(args)
         names = antenna_blocks(graph)
         if args.block:
@@ -204,74 +108,76 @@ class PatternCommand:
             if args.plot or args.steer != (0.0, 0.0):
                 raise UserError("--scan measures every beam of the scan: drop --steer and --plot")
             return scan_table(graph, name, args)
-        try:
-            block = build(graph, name)
-            resource = block.load()
-            built = measure(
-                block, *args.steer, seed=args.seed, resource=resource, span_deg=args.span
-            )
-            ideal = None
-            channel = getattr(block, "channel", None)
-            if channel is not None and not channel.ideal:
-                ideal_block = ideal_copy(block)
-                ideal = measure(
-                    ideal_block, *args.steer, seed=args.seed, resource=resource, span_deg=args.span
-                )
-        except ValueError as exc:
-            raise UserError(f"block {name!r} ({graph.classes[name].type_name}): {exc}") from None
-        if args.plot:
-            plot(args.plot, built, ideal, f"{args.graph}: {name}, steered {args.steer}")
-        figures = {k: json_safe(v) for k, v in built.items() if k != "cuts"}
-        figures.update(
-            antenna=name,
-            type=graph.classes[name].type_name,
-            steer_deg=list(args.steer),
-            seed=args.seed,
-            electronics="ideal" if ideal is None else "with errors",
-            calibration=graph.value(name, "calibration")
+        type_name = graph.classes[name].type_name
+        calibration = (
+            graph.value(name, "calibration")
             if "calibration" in graph.classes[name].params
-            else "boresight",
+            else "boresight"
         )
-        if ideal is not None:
-            figures["ideal"] = {k: json_safe(v) for k, v in ideal.items() if k != "cuts"}
-        if args.json:
-            print(json.dumps(figures, indent=2))
-            return 0
-        print(
-            f"{args.graph}: antenna {name!r} ({figures['type']}), beam at az "
-            f"{figures['beam_azimuth_deg']:.2f}, el {figures['beam_elevation_deg']:.2f} deg "
-            f"({args.steer[0]:g}, {args.steer[1]:g} from broadside), {figures['electronics']}"
-        )
-        rows = [
-            ("3-dB beamwidth, azimuth / elevation (deg)", "beamwidth_az_deg", "beamwidth_el_deg"),
-            (
-                "first sidelobe, azimuth / elevation (dB)",
-                "first_sidelobe_db",
-                "first_sidelobe_el_db",
-            ),
-            ("peak sidelobe, H / V (dB)", "peak_sidelobe_db", "peak_sidelobe_v_db"),
-            (
-                "peak cross-polar in the main beam, H / V port (dB)",
-                "cross_pol_h_db",
-                "cross_pol_v_db",
-            ),
-        ]
-        for label, a, b in rows:
-            print(
-                f"  {label:52s} {_fmt(figures[a])} / {_fmt(figures[b])}"
-                + _ideal_note(figures, a, b)
+
+        def figures(measured: tuple[dict[str, Any], dict[str, Any] | None]) -> dict[str, Any]:
+            built, ideal = measured
+            out = {k: json_safe(v) for k, v in built.items() if k != "cuts"}
+            out.update(
+                antenna=name,
+                type=type_name,
+                steer_deg=list(args.steer),
+                seed=args.seed,
+                electronics="ideal" if ideal is None else "with errors",
+                calibration=calibration,
             )
-        print(
-            f"  {'peak gain (dBi)':52s} {_fmt(figures['peak_gain_dbi'])}"
-            + _ideal_note(figures, "peak_gain_dbi")
+            if ideal is not None:
+                out["ideal"] = {k: json_safe(v) for k, v in ideal.items() if k != "cuts"}
+            return out
+
+        return report(
+            args,
+            lambda: measure_as_built(
+                build(graph, name), *args.steer, seed=args.seed, span_deg=args.span
+            ),
+            figures,
+            plot=lambda m, path: plot(
+                path, m[0], m[1], f"{args.graph}: {name}, steered {args.steer}"
+            ),
+            text=lambda f: figures_text(args.graph, args.steer, f),
+            where=f"block {name!r} ({type_name})",
         )
-        print(
-            f"  {'ZDR bias: two-way H/V ratio at the peak (dB)':52s} "
-            f"{_fmt(figures['zdr_bias_db'])}" + _ideal_note(figures, "zdr_bias_db")
+
+
+def figures_text(graph_file: str, steer: tuple[float, float], figures: dict[str, Any]) -> str:
+    """The figures of one beam as the lines ``pasim pattern`` prints."""
+    lines = [
+        f"{graph_file}: antenna {figures['antenna']!r} ({figures['type']}), beam at az "
+        f"{figures['beam_azimuth_deg']:.2f}, el {figures['beam_elevation_deg']:.2f} deg "
+        f"({steer[0]:g}, {steer[1]:g} from broadside), {figures['electronics']}"
+    ]
+    rows = [
+        ("3-dB beamwidth, azimuth / elevation (deg)", "beamwidth_az_deg", "beamwidth_el_deg"),
+        (
+            "first sidelobe, azimuth / elevation (dB)",
+            "first_sidelobe_db",
+            "first_sidelobe_el_db",
+        ),
+        ("peak sidelobe, H / V (dB)", "peak_sidelobe_db", "peak_sidelobe_v_db"),
+        (
+            "peak cross-polar in the main beam, H / V port (dB)",
+            "cross_pol_h_db",
+            "cross_pol_v_db",
+        ),
+    ]
+    for label, a, b in rows:
+        lines.append(
+            f"  {label:52s} {_fmt(figures[a])} / {_fmt(figures[b])}" + _ideal_note(figures, a, b)
         )
-        if args.plot:
-            print(f"wrote {args.plot}")
-        return 0
+    lines.append(
+        f"  {'peak gain (dBi)':52s} {_fmt(figures['peak_gain_dbi'])}"
+        + _ideal_note(figures, "peak_gain_dbi")
+    )
+    lines.append(
+        f"  {'ZDR bias: two-way H/V ratio at the peak (dB)':52s} "
+        f"{_fmt(figures['zdr_bias_db'])}" + _ideal_note(figures, "zdr_bias_db")
+    )
+    return "\n".join(lines)
 
 
 def _fmt(v: Any) -> str:
@@ -364,7 +270,6 @@ def scan_beams(graph: Any) -> list[tuple[float, float]]:
     nominal azimuths, a volume's cuts, an RHI's elevations, a schedule's beams), in scan order.
     """
     from pasim_graph import Chunk
-    from pasim_graph.cli import UserError
 
     scans = graph.by_role("scan")
     if len(scans) != 1:
@@ -383,17 +288,13 @@ def scan_beams(graph: Any) -> list[tuple[float, float]]:
 
 def scan_table(graph: Any, name: str, args: argparse.Namespace) -> int:
     """``pasim pattern --scan``: the figures of every beam of the scan."""
-    from pasim_graph.cli import UserError
-
     try:
         block = build(graph, name)
         resource = block.load()
-        if hasattr(block, "prepare"):
-            block.prepare(resource)
-        az0, el0 = block.broadside()
+        block.prepare(resource)
         rows = []
         for az, el in scan_beams(graph):
-            steer = ((az - az0 + 180.0) % 360.0 - 180.0, el - el0)
+            steer = steer_from_broadside(block, az, el)
             figures = measure(block, *steer, seed=args.seed, resource=resource, span_deg=args.span)
             row = {"azimuth_deg": az, "elevation_deg": el, "steer_deg": list(steer)}
             row.update({k: json_safe(figures[k]) for k, _, _ in SCAN_COLUMNS})

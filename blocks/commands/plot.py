@@ -28,7 +28,7 @@ class PlotCommand:
         )
 
     def run(self, args: argparse.Namespace) -> int:
-        from pasim_graph.cli import UserError
+        from pasim_graph.command_api import UserError
 
         from ..products.plot import NotAStoreError, plot_store
 

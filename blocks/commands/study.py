@@ -58,7 +58,7 @@ class StudyCommand:
         )
 
     def run(self, args: argparse.Namespace) -> int:
-        from pasim_graph.cli import UserError
+        from pasim_graph.command_api import UserError
         from pasim_graph.dask_executor import (
             ResourceError,
             ResumeError,
@@ -66,6 +66,7 @@ class StudyCommand:
             check_scheduler,
         )
         from pasim_graph.executor import BlockError
+        from pasim_graph.steering import SteeringError
 
         if args.report_only:
             return self.report_only(args)
@@ -77,7 +78,7 @@ class StudyCommand:
         from ..study.integrity import study_inputs
         from ..study.model import read_study
         from ..study.plan import plan_runs
-        from ..study.runner import StudyError, execute, take_folder
+        from ..study.runner import StudyError, execute, take_folder, unscored
         from ..study.scores import score_study, write_scores
         from ..study.sizing import MAX_RUNS, MAX_SECONDS, duration, size_study
 
@@ -122,11 +123,24 @@ class StudyCommand:
         except StudyError as exc:
             raise UserError(str(exc)) from None
 
+        latest: dict = {}
+
         def rescore() -> None:
-            write_scores(
-                out,
-                score_study(study, runs, out, state["beamwidths"], state.get("patterns", {})),
+            latest["scores"] = score_study(
+                study, runs, out, state["beamwidths"], state.get("patterns", {})
             )
+            write_scores(out, latest["scores"])
+
+        def warn_unscored() -> None:
+            # A system none of whose cases was scored is named, not left out of the tables
+            # silently. Stopped before any run finished here, the kept runs are scored.
+            try:
+                if "scores" not in latest:
+                    rescore()
+            except (StudyError, NotAStoreError):
+                return  # a damaged kept store: the resume names it
+            for line in unscored(study, runs, out, latest["scores"]):
+                print(f"warning: {line}", file=sys.stderr)
 
         print(f"study {args.study}: {len(runs)} runs into {out}", file=sys.stderr)
         try:
@@ -142,12 +156,13 @@ class StudyCommand:
                     after_run=rescore,
                 )
         except Stopped as exc:
+            warn_unscored()
             raise StopMessage(
                 f"stopped by {exc}: finished runs are kept in {out}; complete the study with "
                 "the same command and --resume",
                 exc.exit_code,
             ) from None
-        except BlockError as exc:
+        except (BlockError, SteeringError) as exc:
             raise UserError(f"{args.study}: {exc}") from None
         except StudyError as exc:
             raise UserError(str(exc)) from None
@@ -165,6 +180,7 @@ class StudyCommand:
         except (StudyError, NotAStoreError) as exc:
             # A run's store damaged on disk since it was kept: named, one line.
             raise UserError(str(exc)) from None
+        warn_unscored()
         print(
             f"wrote {out / 'scores.json'} and scores.csv: {report['computed']} runs computed, "
             f"{report['kept']} kept, {report['seconds']:.1f} s",
@@ -176,7 +192,7 @@ class StudyCommand:
         return 0
 
     def report_only(self, args: argparse.Namespace) -> int:
-        from pasim_graph.cli import UserError
+        from pasim_graph.command_api import UserError
 
         from ..study.report import write_report
         from ..study.runner import StudyError

@@ -93,15 +93,14 @@ def _db(p: np.ndarray) -> np.ndarray:
 def pattern_part(graph: Any, azimuth_deg: float, elevation_deg: float, seed: int) -> dict:
     """The beam at ``azimuth_deg``: its figures and its azimuth cut (H and V, dB of the
     peak)."""
-    from ..commands.pattern import measure
+    from ..antennas.beam_figures import measure, steer_from_broadside
     from .patterns import antenna
 
     built = antenna(graph)
     if built is None:
         return {"missing": "no antenna block of the graph evaluates its pattern"}
     block, resource = built
-    az0, el0 = block.broadside()
-    steer = ((azimuth_deg - az0 + 180.0) % 360.0 - 180.0, elevation_deg - el0)
+    steer = steer_from_broadside(block, azimuth_deg, elevation_deg)
     m = measure(
         block,
         *steer,
@@ -123,7 +122,7 @@ def pattern_part(graph: Any, azimuth_deg: float, elevation_deg: float, seed: int
 
 def waveform_part(graph: Any) -> dict:
     """The range response through the graph's amplifiers and filter, and its figures."""
-    from ..commands.waveform import ChainError, analyse
+    from ..waveforms.chain import ChainError, analyse
 
     try:
         a = analyse(graph)
@@ -144,8 +143,8 @@ def waveform_part(graph: Any) -> dict:
 
 def spectrum_part(graph: Any) -> dict:
     """The radiated spectrum with the RSEC mask, and the verdict with its margin."""
-    from ..commands.spectrum import analyse
-    from ..commands.waveform import ChainError
+    from ..transmitters.radiated import analyse
+    from ..waveforms.chain import ChainError
 
     try:
         s = analyse(graph)

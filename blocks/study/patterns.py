@@ -1,9 +1,10 @@
 """A study system's antenna, measured beside its scores: the two-way H/V power ratio of every
 beam of the scan and the peak sidelobe of the pattern as built.
 
-Everything goes through the antenna blocks' public pattern API, as ``pasim pattern`` does
-(:func:`pasim_blocks.commands.pattern.build` and :func:`~pasim_blocks.commands.pattern.measure`,
-``fields_at`` at absolute directions), with the channel errors the run seed draws. The figures
+Everything goes through the methods :class:`pasim_blocks.antennas.antenna.Antenna` declares,
+as ``pasim pattern`` does (:func:`pasim_blocks.antennas.beam_figures.build` and
+:func:`~pasim_blocks.antennas.beam_figures.measure`, ``fields_at`` at absolute directions),
+with the channel errors the run seed draws. The figures
 are plain JSON, kept in the study's manifest: computed once per system, case and sweep point.
 """
 
@@ -25,7 +26,7 @@ SIDELOBE_STEP_DEG = 0.02
 
 def antenna(graph: Any) -> tuple[Any, Any] | None:
     """The graph's (first) antenna block, built and prepared, and its resource."""
-    from ..commands.pattern import antenna_blocks, build
+    from ..antennas.beam_figures import antenna_blocks, build
 
     names = antenna_blocks(graph)
     if not names:
@@ -35,8 +36,7 @@ def antenna(graph: Any) -> tuple[Any, Any] | None:
     except ValueError:  # an antenna that cannot evaluate its pattern at any direction
         return None
     resource = block.load()
-    if hasattr(block, "prepare"):
-        block.prepare(resource)
+    block.prepare(resource)
     return block, resource
 
 
@@ -69,12 +69,11 @@ def peak_sidelobes(
 ) -> list[float]:
     """Peak sidelobe (dB below the beam's peak, H port, azimuth and elevation cuts) of each of
     the beams ``azimuth_deg``."""
-    from ..commands.pattern import measure
+    from ..antennas.beam_figures import measure, steer_from_broadside
 
-    az0, el0 = block.broadside()
     out = []
     for az in azimuth_deg:
-        steer = ((float(az) - az0 + 180.0) % 360.0 - 180.0, elevation_deg - el0)
+        steer = steer_from_broadside(block, float(az), elevation_deg)
         figures = measure(
             block,
             *steer,

@@ -170,13 +170,13 @@ def collisions(study: Study, system: System, case: Case, on_case: dict[str, Any]
     return out
 
 
-def _method_overrides(graph: Graph) -> dict[str, Any]:
-    out = {}
-    for name, cls in graph.classes.items():
-        q = cls.params.get("method")
-        if q is not None and q.choices and "expected" in q.choices:
-            out[f"{name}.method"] = "expected"
-    return out
+def expected_overrides(graph: Graph) -> dict[str, Any]:
+    """Every block that declares an expected level, set to it (``Block.expected_level``)."""
+    return {
+        f"{name}.{cls.fidelity_param}": cls.expected_level
+        for name, cls in graph.classes.items()
+        if cls.fidelity_param and cls.expected_level
+    }
 
 
 def calibration_choices(graph: Graph) -> tuple[str, dict[str, dict[str, Any]]]:
@@ -288,7 +288,7 @@ def _settle(
     where = f"system '{system.name}', case '{case.name}'"
     problems += [Problem(study.file, case.line, "", where, t) for t in trouble]
     problems += collisions(study, system, case, on_case)
-    method = _method_overrides(graph)
+    method = expected_overrides(graph)
     if not method:
         problems.append(
             Problem(study.file, system.line, "", where, "no weather block with method 'expected'")
@@ -354,6 +354,9 @@ def _system_runs(
             run.inputs = dict(files)
         return runs
     checked: dict[str, dict[str, str]] = {}  # the seeds of a kind share one graph
+    # A problem the runs of several kinds share (a sector behind a planar face) is named
+    # once, with its kinds.
+    found: dict[str, list[str]] = {}
     for run in runs:
         if run.kind in checked:
             run.inputs = dict(checked[run.kind])
@@ -362,10 +365,11 @@ def _system_runs(
             run.inputs = checked[run.kind] = input_paths(run.graph())
         except GraphError as exc:
             checked[run.kind] = {}
-            problems += [
-                Problem(study.file, case.line, "", f"{where}, {run.kind} run", str(p))
-                for p in exc.problems
-            ]
+            for p in exc.problems:
+                found.setdefault(str(p), []).append(run.kind)
+    for text, kinds in found.items():
+        runs_of = f"{kinds[0]} run" if len(kinds) == 1 else f"{', '.join(kinds)} runs"
+        problems.append(Problem(study.file, case.line, "", f"{where}, {runs_of}", text))
     return runs
 
 

@@ -150,10 +150,26 @@ def finished(path: Path) -> bool:
     )
 
 
+def unscored(study: Study, runs: list[Run], out: Path, scores: dict[str, Any]) -> list[str]:
+    """A line for each system of ``study`` that ``scores`` holds nothing of, with how many
+    of its runs finished (a case and point is scored once every run of it has)."""
+    lines = []
+    for system in study.systems:
+        if scores.get(system.name):
+            continue
+        own = [r for r in runs if r.system == system.name]
+        done = sum(finished(out / "runs" / r.key) for r in own)
+        lines.append(
+            f"system '{system.name}' is unscored: {done} of its {len(own)} runs finished "
+            "(a case is scored once every run of the system on it has)"
+        )
+    return lines
+
+
 def measure_beamwidth(run: Run, estimate: Run, sector: tuple[float, float], el: float) -> float:
     """The one-way 3-dB beamwidth (geometric mean of azimuth and elevation) of the system's
     antenna, its beam steered to the sector's middle."""
-    from ..commands.pattern import build, measure
+    from ..antennas.beam_figures import build, measure
     from .hardware import sector_middle
 
     graph = estimate.graph()

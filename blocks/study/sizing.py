@@ -116,9 +116,8 @@ def _cost_of(graph: Any) -> tuple[int, str, int]:
     beams = sum(s.plan.beam_count for s in sweep_executors(graph, RunOptions()))
     method, pulses = "covariance", REFERENCE_PULSES
     for name, cls in graph.classes.items():
-        q = cls.params.get("method")
-        if q is not None and q.choices and "expected" in q.choices:
-            method = str(graph.value(name, "method"))
+        if cls.fidelity_param and cls.expected_level:
+            method = str(graph.value(name, cls.fidelity_param))
     for name in graph.by_role("scan"):
         if "pulses" in graph.classes[name].params:
             pulses = int(graph.value(name, "pulses"))

@@ -417,21 +417,49 @@ def file_site(tree: Any, sweep: Any, path: Path) -> dict[str, Any]:
     """The radar's position, name and start time as a radar file records them (0 and '' where
     it does not)."""
     root = tree.to_dataset()
-    start = text_value(root["time_coverage_start"].values) if "time_coverage_start" in root else ""
-    if start:
-        try:
-            np.datetime64(start.rstrip("Z"), "ns")
-        except ValueError:
-            raise ValueError(
-                f"{path}: `time_coverage_start` is {start[:40]!r}, not an ISO 8601 time"
-            ) from None
+    start = header_time(root, "time_coverage_start", path)
+    end = header_time(root, "time_coverage_end", path)
+    if start is not None and end is not None and end < start:
+        raise ValueError(
+            f"{path}: `time_coverage_end` {_iso(end)} is before `time_coverage_start` "
+            f"{_iso(start)}: the file's header times are damaged"
+        )
     return {
         "latitude": _scalar(root, "latitude", sweep),
         "longitude": _scalar(root, "longitude", sweep),
         "altitude": _scalar(root, "altitude", sweep),
         "instrument_name": str(tree.attrs.get("instrument_name", path.stem)).strip(),
-        "time_coverage_start": start,
+        "time_coverage_start": text_value(root["time_coverage_start"].values)
+        if start is not None
+        else "",
     }
+
+
+#: The times a radar file's header may give: weather radars recorded from the 1940s, and a
+#: file dated past 2100 (or before 1940: a year 1900 is a zeroed clock) has a damaged header.
+EARLIEST, LATEST = np.datetime64("1940-01-01", "s"), np.datetime64("2100-01-01", "s")
+
+
+def header_time(root: Any, name: str, path: Path) -> np.datetime64 | None:
+    """The time a file's header gives under ``name`` (None where it gives none); refused,
+    naming the file and the field, where it is not a time or not between 1940 and 2100."""
+    text = text_value(root[name].values) if name in root else ""
+    if not text:
+        return None
+    try:
+        when = np.datetime64(text.rstrip("Z"))
+    except ValueError:
+        raise ValueError(f"{path}: `{name}` is {text[:40]!r}, not an ISO 8601 time") from None
+    if np.isnat(when) or not EARLIEST <= when < LATEST:
+        raise ValueError(
+            f"{path}: `{name}` is {text[:40]}, not between 1940 and 2100: the file's header "
+            "time is damaged (or its clock was not set)"
+        )
+    return when
+
+
+def _iso(when: np.datetime64) -> str:
+    return f"{np.datetime_as_string(when, unit='s')}Z"
 
 
 def text_value(value: Any) -> str:

@@ -10,6 +10,13 @@ import xarray as xr
 from pasim_graph import Block, Chunk, Input, Output, Param
 
 from ..angles import circular_difference
+from ..propagation.path import (
+    PropagationParams,
+    note,
+    propagate,
+    propagation_on,
+    propagation_problems,
+)
 from ..signals import (
     BEAMS,
     CALIBRATION,
@@ -57,7 +64,7 @@ METHODS = ("expected", "combined", "covariance", "monte_carlo")
 _COVARIANCE = {"method": "covariance", "support_db": -100.0}
 
 
-class WeatherChannel(WidthParams, Block):
+class WeatherChannel(PropagationParams, WidthParams, Block):
     """Echoes of the truth cells around each beam, at one of four fidelity levels.
 
     Every truth cell with echo inside the pattern grid is an independent Gaussian scatterer
@@ -102,6 +109,11 @@ class WeatherChannel(WidthParams, Block):
 
     Spectrum widths (``width_model``): a radar file's widths are taken as that radar's
     measurement and corrected to what this radar would see (:mod:`pasim_blocks.weather.width`).
+
+    Propagation (``propagation``): at a frequency in another band than the truth's, the cells
+    are seen through the path's two-way rain and gaseous attenuation and the differential
+    phase at this frequency, from the truth's KDP (:mod:`pasim_blocks.propagation`); the
+    calibration then carries the two-way attenuation along each beam's axis.
 
     Gates inside the blind range (one pulse length) are zero. Each beam draws from its own
     random streams (H and V apart). A truth without ZDR, RHOHV and PHIDP (single
@@ -219,6 +231,9 @@ class WeatherChannel(WidthParams, Block):
     # main lobe and first sidelobes of a -32 dB antenna and drops the far ones; covariance
     # leaves undrawn the weakest cells summing to 0.1 % of each gate's echo, covariance-all
     # draws them all.
+    # The study's reference runs read these, not the parameter's name.
+    fidelity_param = "method"
+    expected_level = "expected"
     fidelity_ladder = (
         ("expected", {"method": "expected", "support_db": -100.0, "precision": "float64"}),
         ("combined-40dB", {"method": "combined", "support_db": -40.0, "precision": "float32"}),
@@ -230,10 +245,15 @@ class WeatherChannel(WidthParams, Block):
         ("monte_carlo", {"method": "monte_carlo", "support_db": -100.0, "precision": "float32"}),
     )
 
-    transient = ("_prepared",)
+    transient = ("_prepared", "_path")
+
+    @classmethod
+    def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
+        return propagation_problems(params)
 
     def setup(self) -> None:
         self._prepared: tuple[Any, Any] | None = None
+        self._path: tuple[int, Any] | None = None
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         truth, beams = inputs["truth"], inputs["beams"]
@@ -283,12 +303,15 @@ class WeatherChannel(WidthParams, Block):
         key += (gamma, self.p["temperature_c"])
         volume = is_volume(truth)
         broadening = scan_broadening(beams, pattern, lam, self.p["antenna_motion"])
+        path = self._propagated(truth, volume)
 
         def prepared(beam_broadening: float) -> tuple[Any, TruthCells]:
             full = (*key, float(beam_broadening))
             if self._prepared is None or self._prepared[0] != full:
                 # A volume truth: the cells of every sweep, sweep-major (row s x radials + j).
                 seen = flat_volume(truth) if volume else truth
+                if path is not None:
+                    seen = path[0]
                 ranges = range_model(
                     response,
                     gate_m,
@@ -474,6 +497,12 @@ class WeatherChannel(WidthParams, Block):
                 **transmit_power(self.p["peak_power_w"], response),
             },
         )
+        if path is not None:
+            calibration["path_attenuation_db"] = (
+                ("beam", "range", "polarization"),
+                _axis_attenuation(path[1], truth, beams, volume),
+                {"units": "dB", "long_name": "two-way path attenuation along the beam's axis"},
+            )
         if overlay is not None:
             calibration.attrs["unambiguous_range_m"] = SPEED_OF_LIGHT * prt_t1 / 2
             calibration["overlaid_power_ratio_db"] = (
@@ -488,6 +517,21 @@ class WeatherChannel(WidthParams, Block):
             "echo_correlations": corr,
             "calibration": calibration,
         }
+
+    def _propagated(self, truth: xr.Dataset, volume: bool) -> tuple[xr.Dataset, Any] | None:
+        """The truth cells (a volume's flattened) through the path and the path, when
+        propagation is on (None when off); computed once per truth."""
+        if not propagation_on(self.p):
+            return None
+        note(self.p)
+        if self._path is None or self._path[0] != id(truth):
+            seen = flat_volume(truth) if volume else truth
+            if volume:
+                elevation = np.repeat(truth["sweep_elevation"].values, truth.sizes["radial"])
+            else:
+                elevation = np.full(truth.sizes["radial"], float(truth.attrs["elevation_deg"]))
+            self._path = (id(truth), propagate(seen, elevation, self.p))
+        return self._path[1]
 
     def _fold(
         self,
@@ -532,6 +576,21 @@ class WeatherChannel(WidthParams, Block):
         ratio_db = np.where(visible[None, :], ratio_db, np.nan).astype(np.float32)
         # The correlations stay each gate's own echo (a processor may recover a far trip).
         return folded, corr, ratio_db
+
+
+def _axis_attenuation(path: Any, truth: xr.Dataset, beams: xr.Dataset, volume: bool) -> np.ndarray:
+    """Two-way attenuation (dB) of H and V along each beam's axis: the truth radial nearest
+    its azimuth (of a volume, in the sweep nearest its elevation); beam x range x pol."""
+    az = truth["azimuth"].values
+    rows = np.argmin(
+        np.abs(circular_difference(az[None, :], beams["azimuth"].values[:, None], 360.0)), axis=1
+    )
+    if volume:
+        sweeps = truth["sweep_elevation"].values
+        nearest = np.argmin(np.abs(sweeps[None, :] - beams["elevation"].values[:, None]), axis=1)
+        rows = rows + nearest * az.size
+    h = path.attenuation_h_db[rows]
+    return np.stack([h, h - path.differential_db[rows]], axis=-1)
 
 
 def _staggered_grid(
