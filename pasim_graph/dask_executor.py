@@ -194,6 +194,54 @@ def warm_engine() -> None:
             )
 
 
+def open_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
+    """A ``dask.distributed`` client and the LocalCluster it runs on (None for a
+    ``scheduler`` address): ``workers`` single-threaded worker processes started here, or
+    the scheduler at ``scheduler``. The caller closes both."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    # distributed logs a lost connection as an ERROR with its traceback, on this
+    # process's stderr; the run says what happened in one line of its own instead.
+    for name in ["distributed", *logging.root.manager.loggerDict]:
+        if name.startswith("distributed"):
+            logging.getLogger(name).setLevel(logging.CRITICAL)
+
+    if scheduler and scheduler not in LOCAL_SCHEDULERS:
+        return Client(scheduler, timeout="10s"), None
+    import dask
+
+    # Dask's nannies give their workers MALLOC_TRIM_THRESHOLD_, which turns off glibc's
+    # adaptive mmap threshold: every large numpy temporary becomes a fresh mmap of zeroed
+    # pages. Measured on the generic radar: chunks 1.5x slower. Memory stays bounded by
+    # the chunk without it.
+    trim = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
+    with dask.config.set({trim: None}):
+        cluster = LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+        )
+    try:
+        return Client(cluster), cluster
+    except BaseException:
+        cluster.close()
+        raise
+
+
+def warm_up_workers(client: Any, classes: list[type[Block]], *, wait: bool = True) -> None:
+    """Workers import the block modules (and their numerical libraries) now, while this
+    process is still reading the inputs, not when their first chunk arrives. ``wait=False``
+    only sends it (the calling thread goes on reading inputs; a chunk that reaches a worker
+    first pays the imports itself, as without a warm-up)."""
+    # distributed sends without waiting only a coroutine function (it runs it on the
+    # worker's event loop, as it runs a plain one).
+    client.run(_warm_up_async if not wait else _warm_up, classes, wait=wait)
+
+
+async def _warm_up_async(classes: list[type[Block]]) -> None:
+    _warm_up(classes)
+
+
 def _worker_name() -> str:
     """Where a task ran: host, process and (under dask's threads) thread."""
     import socket
@@ -259,6 +307,11 @@ class DaskExecutor:
         (``tcp://host:8786``).
     progress : bool
         Show dask's progress bar.
+    client : distributed.Client, optional
+        A client to run on instead of one of the run's own (a study's runs share one, made
+        by :func:`open_client`): the run neither closes it nor warms its workers up (whoever
+        made it does, once: :func:`warm_up_workers`). ``scheduler`` then only names it in
+        the task record and messages.
     """
 
     def __init__(
@@ -270,6 +323,7 @@ class DaskExecutor:
         scheduler: str | None = None,
         progress: bool = False,
         chunk_auto: bool = False,
+        client: Any = None,
     ):
         self.graph = graph
         self.options = options or RunOptions()
@@ -293,7 +347,12 @@ class DaskExecutor:
                 sweep.options = self.options
         self.workers, self.scheduler, self.progress = workers, scheduler, progress
         self._cluster: Any = None
+        self._client = client  # given: shared with other runs, never closed here
         self._disk_estimate = 0  # bytes the store will take, once the first beam has shown it
+
+    def worker_classes(self) -> list[type[Block]]:
+        """The block classes whose code runs on the workers (the per-chunk blocks)."""
+        return [self.graph.classes[n] for n in self.local.plan.per_chunk]
 
     def _set_chunk(self, chunk_beams: int) -> None:
         self.options = replace(self.options, chunk_beams=chunk_beams)
@@ -430,10 +489,15 @@ class DaskExecutor:
 
         t0 = time.perf_counter()
         record = TaskRecord(self.workers, self.scheduler, self.options.chunk_beams)
-        # A cluster takes seconds to start; it starts while the inputs are read.
+        # A cluster takes seconds to start; it starts while the inputs are read. A client
+        # given is ready, and its owner closes it.
         pool = ThreadPoolExecutor(1)
         distributed = self.workers or self.scheduler not in (None, *LOCAL_SCHEDULERS)
-        client = pool.submit(record.timed, "connect", self._connect) if distributed else None
+        client = None
+        if self._client is not None:
+            client = pool.submit(lambda: self._client)
+        elif distributed:
+            client = pool.submit(record.timed, "connect", self._connect)
         on_target = 0.0
         try:
             # The sweeps share their blocks' resources (one dict): read once.
@@ -471,7 +535,7 @@ class DaskExecutor:
                 raise Stopped(signal.SIGINT)
             record.tasks += [t for t in tasks if t is not None]
         finally:
-            if client is not None:
+            if client is not None and self._client is None:
                 # The cluster may have failed to start; then there is nothing to close.
                 connected = None if client.exception() else client.result()
                 if connected is not None:
@@ -616,37 +680,8 @@ class DaskExecutor:
                 pool.shutdown(wait=True, cancel_futures=True)
 
     def _connect(self) -> Any:
-        import logging
-
-        from distributed import Client, LocalCluster
-
-        # distributed logs a lost connection as an ERROR with its traceback, on this
-        # process's stderr; the run says what happened in one line of its own instead.
-        for name in ["distributed", *logging.root.manager.loggerDict]:
-            if name.startswith("distributed"):
-                logging.getLogger(name).setLevel(logging.CRITICAL)
-
-        if self.scheduler and self.scheduler not in LOCAL_SCHEDULERS:
-            client = Client(self.scheduler, timeout="10s")
-        else:
-            import dask
-
-            # Dask's nannies give their workers MALLOC_TRIM_THRESHOLD_, which turns off glibc's
-            # adaptive mmap threshold: every large numpy temporary becomes a fresh mmap of
-            # zeroed pages. Measured on the generic radar: chunks 1.5x slower. Memory stays
-            # bounded by the chunk without it.
-            trim = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
-            with dask.config.set({trim: None}):
-                self._cluster = LocalCluster(
-                    n_workers=self.workers,
-                    threads_per_worker=1,
-                    processes=True,
-                    dashboard_address=None,
-                )
-            client = Client(self._cluster)
-        # Workers import the block modules (and their numerical libraries) now, while this
-        # process is still reading the inputs, not when their first chunk arrives.
-        client.run(_warm_up, [self.graph.classes[n] for n in self.local.plan.per_chunk])
+        client, self._cluster = open_client(self.workers, self.scheduler)
+        warm_up_workers(client, self.worker_classes())
         return client
 
     def _compute_distributed(
@@ -659,7 +694,7 @@ class DaskExecutor:
         path: str,
         attrs: dict[str, Any],
     ) -> list[dict[str, Any] | None]:
-        from distributed import progress, wait
+        from distributed import progress
 
         if not todo:
             return []
@@ -685,27 +720,32 @@ class DaskExecutor:
             )
             for i in todo
         ]
-        from distributed.client import FuturesCancelledError
+        from distributed.client import FutureCancelledError, FuturesCancelledError
         from distributed.comm.core import CommClosedError
 
         try:
-            # distributed's wait and progress find "the" client themselves: the latest one
-            # made in this process unless told, which with a study's runs in flight in
-            # threads is another run's, perhaps closing (a run then failed inside wait).
-            # This thread's current client is this run's.
-            with client.as_current():
-                if self.progress:
-                    # distributed's text bar writes to standard output, which holds the
-                    # product (the score table): the bar goes to standard error.
-                    with contextlib.redirect_stdout(sys.stderr):
-                        progress(futures)
-                wait(futures)
+            if self.progress:
+                # distributed's progress finds "the" client itself (the latest one made in
+                # this process unless told): this run's is made this thread's current one.
+                # Its text bar writes to standard output, which holds the product (the
+                # score table): the bar goes to standard error.
+                with client.as_current(), contextlib.redirect_stdout(sys.stderr):
+                    progress(futures)
+            # Every chunk ends (a failed one does not leave the others writing behind the
+            # run's back), through this run's client, not "the current" one.
+            client.gather(futures, errors="skip")
             # Re-raises a failed chunk's error here.
             return [f.result() for f in futures]
-        except (FuturesCancelledError, CommClosedError, TimeoutError) as exc:
+        except (
+            FutureCancelledError,
+            FuturesCancelledError,
+            CommClosedError,
+            TimeoutError,
+        ) as exc:
             # The scheduler went away (or the client lost it): the chunks written so far are
             # kept and flagged; the rest are run by --resume, on this cluster or another.
-            if client.status == "running" and not isinstance(exc, FuturesCancelledError):
+            cancelled = (FutureCancelledError, FuturesCancelledError)
+            if client.status == "running" and not isinstance(exc, cancelled):
                 raise
             where = self.scheduler or "the local cluster"
             raise SchedulerError(

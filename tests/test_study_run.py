@@ -304,18 +304,39 @@ def _store_values(path: Path) -> dict[str, np.ndarray]:
     return out
 
 
-def test_a_study_with_every_run_in_flight_is_the_serial_study(tmp_path, study, monkeypatch):
-    """--workers 2 with all 8 runs in flight at once on the one cluster: every store holds
-    the values the serial study's holds, bit for bit, and scores.json is the same file.
+#: The in-flight study below, in a process of its own: a hang (seen once, with one client per
+#: run made from the runs' threads) dumps every thread's stack and ends that process, so the
+#: test fails naming where it hung instead of stalling.
+IN_FLIGHT = """
+import faulthandler, sys
+faulthandler.dump_traceback_later(float(sys.argv[1]), exit=True)
+import pasim_blocks.study.inflight as inflight
+inflight.runs_at_once = lambda client: int(sys.argv[2])
+from pasim_graph.cli import main
+sys.exit(main(sys.argv[3:]))
+"""
+
+#: Seconds the in-flight study may take (about 1-3 min on a loaded 2-core machine).
+IN_FLIGHT_LIMIT_S = 480
+
+
+def test_a_study_with_every_run_in_flight_is_the_serial_study(tmp_path, study):
+    """--workers 2 with all 8 runs in flight at once on the study's one cluster and client:
+    every store holds the values the serial study's holds, bit for bit, and scores.json is
+    the same file; and it ends (no hang: see IN_FLIGHT).
 
     Failed before each run's shared inputs were scattered under keys of its own: the
     runs' inputs went to the cluster under the same keys (("mf", "range_response")...), and
     the short-pulse reference was computed with another run's range response."""
-    import pasim_blocks.study.inflight as inflight
-
-    monkeypatch.setattr(inflight, "runs_at_once", lambda workers, scheduler: 8)
     out = tmp_path / "out"
-    assert main(["study", str(STUDY), "--out", str(out), "--workers", "2"]) == 0
+    cmd = [sys.executable, "-c", IN_FLIGHT, str(IN_FLIGHT_LIMIT_S), "8"]
+    cmd += ["study", str(STUDY), "--out", str(out), "--workers", "2"]
+    t0 = time.perf_counter()
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=IN_FLIGHT_LIMIT_S + 60)
+    assert res.returncode == 0, (
+        f"the study with 8 runs in flight failed or hung (rc {res.returncode}, "
+        f"{time.perf_counter() - t0:.0f} s):\n{res.stderr[-20000:]}"
+    )
     stores = sorted(p.relative_to(study) for p in (study / "runs").rglob("*.zarr"))
     assert stores == sorted(p.relative_to(out) for p in (out / "runs").rglob("*.zarr"))
     assert len(stores) == 8

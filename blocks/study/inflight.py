@@ -10,7 +10,9 @@ threads), so that every worker can be busy with the runs in flight while one mor
 and a further run starts only while :data:`RUN_MEMORY` is available to this process (each
 run in flight holds its inputs here, and a copy of them on every worker).
 
-Each run runs in a thread of this process; everything else stays in the calling thread and
+Each run runs in a thread of this process, on the study's one client (made, warmed up and
+closed by the study in the calling thread: no run thread makes a client); everything else
+stays in the calling thread and
 in the study's order (:func:`in_order`): building a run's graph, recording the runs as they
 finish (the manifest, the antenna figures, the scores), so that the study, its manifest and
 its report are those of the runs one after another.
@@ -20,7 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
-from typing import TypeVar
+from typing import Any, TypeVar
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -31,24 +33,12 @@ R = TypeVar("R")
 RUN_MEMORY = 1 << 30
 
 
-def cluster_slots(scheduler: str) -> int:
-    """How many chunks the cluster at ``scheduler`` runs at once (its workers' threads)."""
-    from distributed import Client
-
-    with Client(scheduler, timeout="10s") as client:
-        return max(1, sum(client.nthreads().values()))
-
-
-def runs_at_once(workers: int | None, scheduler: str | None) -> int:
-    """Runs in flight: one (in this thread) without a cluster, else the cluster's chunk
-    slots plus one."""
-    from pasim_graph.dask_executor import LOCAL_SCHEDULERS
-
-    if workers:
-        return workers + 1
-    if scheduler and scheduler not in LOCAL_SCHEDULERS:
-        return cluster_slots(scheduler) + 1
-    return 1
+def runs_at_once(client: Any) -> int:
+    """Runs in flight: one (in this thread) without a cluster (``client`` None), else the
+    cluster's chunk slots (its workers' threads) plus one."""
+    if client is None:
+        return 1
+    return max(1, sum(client.nthreads().values())) + 1
 
 
 def in_order(

@@ -319,9 +319,19 @@ def execute(
     On a cluster (``workers`` or ``scheduler``) several runs are in flight at once (at most
     ``at_once``, by default :func:`.inflight.runs_at_once`), recorded in the study's order
     (:func:`.inflight.in_order`); without one, one run after another in this thread.
+
+    The study makes one client (and, with ``workers``, one LocalCluster), here in the calling
+    thread, and every run uses it: no run makes, warms up or closes a client of its own. One
+    client per run, made from the runs' threads at once, was seen to hang a study (8 runs
+    laid out, none of them sending its inputs to the cluster, for 19 min).
     """
     from pasim_graph import __version__
-    from pasim_graph.dask_executor import DaskExecutor
+    from pasim_graph.dask_executor import (
+        LOCAL_SCHEDULERS,
+        DaskExecutor,
+        open_client,
+        warm_up_workers,
+    )
     from pasim_graph.executor import RunOptions
     from pasim_graph.provenance import provenance
     from pasim_graph.resources import memory_available
@@ -331,16 +341,9 @@ def execute(
 
     t_start = time.perf_counter()
     todo = check_stores(study, runs, out, state)
-    cluster = None
-    if workers:
-        import dask
-        from distributed import LocalCluster
-
-        with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
-            cluster = LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
-            )
-        scheduler = cluster.scheduler_address
+    client: Any = None
+    cluster: Any = None
+    warmed: set[type] = set()  # block classes the workers have been sent to warm up
     kept = len(runs) - len(todo)
     if kept:
         log(f"keeping {kept} finished run(s) of {len(runs)}")
@@ -368,8 +371,15 @@ def execute(
             **provenance(run.system, f"pasim study {study.file}"),
         }
         executor = DaskExecutor(
-            graph, RunOptions(seed=run.seed), scheduler=scheduler, progress=progress
+            graph, RunOptions(seed=run.seed), scheduler=scheduler, progress=progress, client=client
         )
+        if client is not None:
+            # Once per study for each block class: sent, not waited for (this thread builds
+            # the next run meanwhile).
+            new = [c for c in executor.worker_classes() if c not in warmed]
+            if new:
+                warm_up_workers(client, new, wait=False)
+                warmed.update(new)
 
         def one() -> float:
             t0 = time.perf_counter()
@@ -389,10 +399,16 @@ def execute(
         ensure_patterns(study, runs, out, state, log, frozenset(pending[computed:]))
         after_run()
 
-    limit = at_once if at_once is not None else runs_at_once(workers, scheduler)
+    if todo and (workers or scheduler not in (None, *LOCAL_SCHEDULERS)):
+        client, cluster = open_client(workers, scheduler)
+        if cluster is not None:
+            scheduler = cluster.scheduler_address
     try:
+        limit = at_once if at_once is not None else runs_at_once(client)
         in_order(todo, start, record, limit, lambda: memory_available() >= RUN_MEMORY)
     finally:
+        if client is not None:
+            client.close()
         if cluster is not None:
             cluster.close()
     return {"computed": computed, "kept": kept, "seconds": time.perf_counter() - t_start}
