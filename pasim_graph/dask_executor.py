@@ -694,7 +694,7 @@ class DaskExecutor:
         path: str,
         attrs: dict[str, Any],
     ) -> list[dict[str, Any] | None]:
-        from distributed import progress
+        from distributed import progress, wait
 
         if not todo:
             return []
@@ -724,16 +724,18 @@ class DaskExecutor:
         from distributed.comm.core import CommClosedError
 
         try:
-            if self.progress:
-                # distributed's progress finds "the" client itself (the latest one made in
-                # this process unless told): this run's is made this thread's current one.
-                # Its text bar writes to standard output, which holds the product (the
-                # score table): the bar goes to standard error.
-                with client.as_current(), contextlib.redirect_stdout(sys.stderr):
-                    progress(futures)
-            # Every chunk ends (a failed one does not leave the others writing behind the
-            # run's back), through this run's client, not "the current" one.
-            client.gather(futures, errors="skip")
+            # distributed's wait and progress find "the" client themselves (the latest one
+            # made in this process unless told): this run's is made this thread's current
+            # one. wait, not client.gather: it fetches nothing, so a scheduler lost ends it
+            # with the futures cancelled instead of an OSError fetching the results.
+            with client.as_current():
+                if self.progress:
+                    # distributed's text bar writes to standard output, which holds the
+                    # product (the score table): the bar goes to standard error.
+                    with contextlib.redirect_stdout(sys.stderr):
+                        progress(futures)
+                # Every chunk ends: a failed one leaves none writing behind the run's back.
+                wait(futures)
             # Re-raises a failed chunk's error here.
             return [f.result() for f in futures]
         except (
