@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import hashlib
 import json
 import math
 import os
@@ -118,9 +119,14 @@ def choose_chunk(n_beams: int, slots: int, most: int = MOST_BEAMS, overhead: flo
     return best
 
 
-def chunk_key(run: str, index: int) -> str:
-    """The Dask task key of one chunk: the same for the same run and chunk, every time."""
-    return f"pasim-chunk-{run}-{index}"
+def chunk_key(run: str, path: str | Path, index: int) -> str:
+    """The Dask task key of one chunk: the same for the same run, store and chunk, every time.
+
+    The store is part of it: a cluster runs a key once, for whoever asks first, so two runs
+    of one run key (a study's reference runs that several points share) in flight at once
+    into two stores would otherwise both be given the chunks written into the first one."""
+    where = hashlib.sha256(str(Path(path).resolve()).encode()).hexdigest()[:12]
+    return f"pasim-chunk-{run}-{where}-{index}"
 
 
 def check_scheduler(address: str, timeout_s: float = 3.0) -> None:
@@ -188,6 +194,54 @@ def warm_engine() -> None:
             )
 
 
+def open_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
+    """A ``dask.distributed`` client and the LocalCluster it runs on (None for a
+    ``scheduler`` address): ``workers`` single-threaded worker processes started here, or
+    the scheduler at ``scheduler``. The caller closes both."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    # distributed logs a lost connection as an ERROR with its traceback, on this
+    # process's stderr; the run says what happened in one line of its own instead.
+    for name in ["distributed", *logging.root.manager.loggerDict]:
+        if name.startswith("distributed"):
+            logging.getLogger(name).setLevel(logging.CRITICAL)
+
+    if scheduler and scheduler not in LOCAL_SCHEDULERS:
+        return Client(scheduler, timeout="10s"), None
+    import dask
+
+    # Dask's nannies give their workers MALLOC_TRIM_THRESHOLD_, which turns off glibc's
+    # adaptive mmap threshold: every large numpy temporary becomes a fresh mmap of zeroed
+    # pages. Measured on the generic radar: chunks 1.5x slower. Memory stays bounded by
+    # the chunk without it.
+    trim = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
+    with dask.config.set({trim: None}):
+        cluster = LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+        )
+    try:
+        return Client(cluster), cluster
+    except BaseException:
+        cluster.close()
+        raise
+
+
+def warm_up_workers(client: Any, classes: list[type[Block]], *, wait: bool = True) -> None:
+    """Workers import the block modules (and their numerical libraries) now, while this
+    process is still reading the inputs, not when their first chunk arrives. ``wait=False``
+    only sends it (the calling thread goes on reading inputs; a chunk that reaches a worker
+    first pays the imports itself, as without a warm-up)."""
+    # distributed sends without waiting only a coroutine function (it runs it on the
+    # worker's event loop, as it runs a plain one).
+    client.run(_warm_up_async if not wait else _warm_up, classes, wait=wait)
+
+
+async def _warm_up_async(classes: list[type[Block]]) -> None:
+    _warm_up(classes)
+
+
 def _worker_name() -> str:
     """Where a task ran: host, process and (under dask's threads) thread."""
     import socket
@@ -253,6 +307,11 @@ class DaskExecutor:
         (``tcp://host:8786``).
     progress : bool
         Show dask's progress bar.
+    client : distributed.Client, optional
+        A client to run on instead of one of the run's own (a study's runs share one, made
+        by :func:`open_client`): the run neither closes it nor warms its workers up (whoever
+        made it does, once: :func:`warm_up_workers`). ``scheduler`` then only names it in
+        the task record and messages.
     """
 
     def __init__(
@@ -264,6 +323,7 @@ class DaskExecutor:
         scheduler: str | None = None,
         progress: bool = False,
         chunk_auto: bool = False,
+        client: Any = None,
     ):
         self.graph = graph
         self.options = options or RunOptions()
@@ -287,7 +347,12 @@ class DaskExecutor:
                 sweep.options = self.options
         self.workers, self.scheduler, self.progress = workers, scheduler, progress
         self._cluster: Any = None
+        self._client = client  # given: shared with other runs, never closed here
         self._disk_estimate = 0  # bytes the store will take, once the first beam has shown it
+
+    def worker_classes(self) -> list[type[Block]]:
+        """The block classes whose code runs on the workers (the per-chunk blocks)."""
+        return [self.graph.classes[n] for n in self.local.plan.per_chunk]
 
     def _set_chunk(self, chunk_beams: int) -> None:
         self.options = replace(self.options, chunk_beams=chunk_beams)
@@ -424,10 +489,15 @@ class DaskExecutor:
 
         t0 = time.perf_counter()
         record = TaskRecord(self.workers, self.scheduler, self.options.chunk_beams)
-        # A cluster takes seconds to start; it starts while the inputs are read.
+        # A cluster takes seconds to start; it starts while the inputs are read. A client
+        # given is ready, and its owner closes it.
         pool = ThreadPoolExecutor(1)
         distributed = self.workers or self.scheduler not in (None, *LOCAL_SCHEDULERS)
-        client = pool.submit(record.timed, "connect", self._connect) if distributed else None
+        client = None
+        if self._client is not None:
+            client = pool.submit(lambda: self._client)
+        elif distributed:
+            client = pool.submit(record.timed, "connect", self._connect)
         on_target = 0.0
         try:
             # The sweeps share their blocks' resources (one dict): read once.
@@ -451,7 +521,7 @@ class DaskExecutor:
             if STOPPING.is_set():
                 # A run in another thread than the one signals stop (a study's runs at once).
                 raise Stopped(signal.SIGINT)
-            keys = {i: chunk_key(key, i) for i in todo}
+            keys = {i: chunk_key(key, path, i) for i in todo}
             if client is not None:
                 tasks = self._compute_distributed(
                     client.result(), todo, keys, starts, static, str(path), attrs
@@ -465,7 +535,7 @@ class DaskExecutor:
                 raise Stopped(signal.SIGINT)
             record.tasks += [t for t in tasks if t is not None]
         finally:
-            if client is not None:
+            if client is not None and self._client is None:
                 # The cluster may have failed to start; then there is nothing to close.
                 connected = None if client.exception() else client.result()
                 if connected is not None:
@@ -610,37 +680,8 @@ class DaskExecutor:
                 pool.shutdown(wait=True, cancel_futures=True)
 
     def _connect(self) -> Any:
-        import logging
-
-        from distributed import Client, LocalCluster
-
-        # distributed logs a lost connection as an ERROR with its traceback, on this
-        # process's stderr; the run says what happened in one line of its own instead.
-        for name in ["distributed", *logging.root.manager.loggerDict]:
-            if name.startswith("distributed"):
-                logging.getLogger(name).setLevel(logging.CRITICAL)
-
-        if self.scheduler and self.scheduler not in LOCAL_SCHEDULERS:
-            client = Client(self.scheduler, timeout="10s")
-        else:
-            import dask
-
-            # Dask's nannies give their workers MALLOC_TRIM_THRESHOLD_, which turns off glibc's
-            # adaptive mmap threshold: every large numpy temporary becomes a fresh mmap of
-            # zeroed pages. Measured on the generic radar: chunks 1.5x slower. Memory stays
-            # bounded by the chunk without it.
-            trim = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
-            with dask.config.set({trim: None}):
-                self._cluster = LocalCluster(
-                    n_workers=self.workers,
-                    threads_per_worker=1,
-                    processes=True,
-                    dashboard_address=None,
-                )
-            client = Client(self._cluster)
-        # Workers import the block modules (and their numerical libraries) now, while this
-        # process is still reading the inputs, not when their first chunk arrives.
-        client.run(_warm_up, [self.graph.classes[n] for n in self.local.plan.per_chunk])
+        client, self._cluster = open_client(self.workers, self.scheduler)
+        warm_up_workers(client, self.worker_classes())
         return client
 
     def _compute_distributed(
@@ -658,8 +699,13 @@ class DaskExecutor:
         if not todo:
             return []
         used = sorted({starts[i][0] for i in todo})
-        local = {k: client.scatter(self.sweeps[k], broadcast=True) for k in used}
-        shared = client.scatter(static, broadcast=True)
+        # Keys of this run's own (hash=False: fresh ones). The shared inputs go as one value
+        # ([static]): scatter takes a dict's own keys as the data's keys on the cluster, and
+        # every run's are the same ("mf", "range_response")...: with a study's runs in flight
+        # at once, one run's chunks computed with another run's inputs (the short-pulse
+        # reference got the sidelobe-free one's range response, silently).
+        local = {k: client.scatter(self.sweeps[k], broadcast=True, hash=False) for k in used}
+        [shared] = client.scatter([static], broadcast=True, hash=False)
         futures = [
             client.submit(
                 _run_and_write,
@@ -674,22 +720,34 @@ class DaskExecutor:
             )
             for i in todo
         ]
-        from distributed.client import FuturesCancelledError
+        from distributed.client import FutureCancelledError, FuturesCancelledError
         from distributed.comm.core import CommClosedError
 
         try:
-            if self.progress:
-                # distributed's text bar writes to standard output, which holds the product
-                # (the score table): the bar goes to standard error like every message.
-                with contextlib.redirect_stdout(sys.stderr):
-                    progress(futures)
-            wait(futures)
+            # distributed's wait and progress find "the" client themselves (the latest one
+            # made in this process unless told): this run's is made this thread's current
+            # one. wait, not client.gather: it fetches nothing, so a scheduler lost ends it
+            # with the futures cancelled instead of an OSError fetching the results.
+            with client.as_current():
+                if self.progress:
+                    # distributed's text bar writes to standard output, which holds the
+                    # product (the score table): the bar goes to standard error.
+                    with contextlib.redirect_stdout(sys.stderr):
+                        progress(futures)
+                # Every chunk ends: a failed one leaves none writing behind the run's back.
+                wait(futures)
             # Re-raises a failed chunk's error here.
             return [f.result() for f in futures]
-        except (FuturesCancelledError, CommClosedError, TimeoutError) as exc:
+        except (
+            FutureCancelledError,
+            FuturesCancelledError,
+            CommClosedError,
+            TimeoutError,
+        ) as exc:
             # The scheduler went away (or the client lost it): the chunks written so far are
             # kept and flagged; the rest are run by --resume, on this cluster or another.
-            if client.status == "running" and not isinstance(exc, FuturesCancelledError):
+            cancelled = (FutureCancelledError, FuturesCancelledError)
+            if client.status == "running" and not isinstance(exc, cancelled):
                 raise
             where = self.scheduler or "the local cluster"
             raise SchedulerError(

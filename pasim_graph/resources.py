@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -66,6 +67,12 @@ def stored_bytes(sweep: xr.Dataset, beam_dim: str) -> int:
     return max(packed, int(raw * ratio))
 
 
+#: How many :func:`traced` calls this module's tracing serves now (0: it traces nothing,
+#: whether or not someone else turned tracemalloc on), and the lock that guards it.
+_TRACING = threading.Lock()
+_tracing = 0
+
+
 def traced(fn: Callable[[], Any]) -> tuple[Any, tuple[int, int]]:
     """Call ``fn`` with tracemalloc on (numpy reports its buffers to it).
 
@@ -73,17 +80,28 @@ def traced(fn: Callable[[], Any]) -> tuple[Any, tuple[int, int]]:
     """
     import tracemalloc
 
-    started = not tracemalloc.is_tracing()
-    if started:
-        tracemalloc.start()
+    global _tracing
+    # Tracing is per process: runs measured in several threads at once (a study's runs in
+    # flight) share it, and the last to finish stops it (one stopping it under another
+    # would leave the other's figures at zero). Their peaks then count each other's
+    # allocations: an over-estimate, the safe side for the checks they feed.
+    with _TRACING:
+        if _tracing == 0 and not tracemalloc.is_tracing():
+            tracemalloc.start()
+            _tracing = 1
+        elif _tracing:
+            _tracing += 1
     try:
         base = tracemalloc.get_traced_memory()[0]
         tracemalloc.reset_peak()
         result = fn()
         current, peak = tracemalloc.get_traced_memory()
     finally:
-        if started:
-            tracemalloc.stop()
+        with _TRACING:
+            if _tracing:
+                _tracing -= 1
+                if _tracing == 0:
+                    tracemalloc.stop()
     kept = max(0, current - base)
     return result, (max(0, peak - base - kept), kept)
 

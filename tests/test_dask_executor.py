@@ -159,3 +159,14 @@ def test_resume_refuses_a_store_from_another_run(tmp_path):
     assert res.returncode == 2 and "another run" in res.stderr
     res = run_cli("run", GENERIC, "--sector", "280:282", *FAST, "--resume", "--out", str(out))
     assert res.returncode == 0 and "already complete" in res.stderr
+
+
+def test_chunk_keys_name_the_store_as_well_as_the_run():
+    # A cluster runs a key once for whoever asks first: two runs of one run key (a study's
+    # reference runs that several points share) in flight at once into two stores must not
+    # share their chunks' keys, or the second store is never written.
+    from pasim_graph.dask_executor import chunk_key
+
+    assert chunk_key("k", "/a/run.zarr", 3) == chunk_key("k", "/a/run.zarr", 3)
+    assert chunk_key("k", "/a/run.zarr", 3) != chunk_key("k", "/b/run.zarr", 3)
+    assert chunk_key("k", "/a/run.zarr", 3) != chunk_key("k", "/a/run.zarr", 4)

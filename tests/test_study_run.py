@@ -286,3 +286,79 @@ def test_a_run_store_damaged_on_disk_is_named_not_a_traceback(tmp_path, capsys, 
     else:
         assert code == 0, err
         assert scores(copy) == scores(study)  # the damaged run was written again
+
+
+def _store_values(path: Path) -> dict[str, np.ndarray]:
+    """Every array of a store by its path in the store (the per-chunk flags aside)."""
+    import zarr
+
+    out: dict[str, np.ndarray] = {}
+
+    def walk(group, prefix: str) -> None:
+        for name, array in group.arrays():
+            if name != "pasim_chunk_done":
+                out[prefix + name] = np.asarray(array[...])
+        for name, sub in group.groups():
+            walk(sub, f"{prefix}{name}/")
+
+    walk(zarr.open_group(str(path), mode="r"), "")
+    return out
+
+
+#: The in-flight study below, in a process of its own: a hang (seen once, with one client per
+#: run made from the runs' threads) dumps every thread's stack and ends that process, so the
+#: test fails naming where it hung instead of stalling.
+IN_FLIGHT_SCRIPT = """
+import faulthandler, sys
+faulthandler.dump_traceback_later(float(sys.argv[1]), exit=True)
+import pasim_blocks.study.inflight as inflight
+inflight.runs_at_once = lambda client: int(sys.argv[2])
+from pasim_graph.cli import main
+sys.exit(main(sys.argv[3:]))
+"""
+
+#: Seconds the in-flight study may take (about 1-3 min on a loaded 2-core machine).
+IN_FLIGHT_LIMIT_S = 480
+
+#: Runs in flight at once (of the tiny study's 8): 4 take up both references of the first
+#: system together, enough to fail with the shared scatter keys (a KeyError when one run
+#: released the other's ('tx', 'pulse'), when they were scattered as a dict).
+IN_FLIGHT = 4
+
+
+def test_a_study_with_every_run_in_flight_is_the_serial_study(tmp_path, study):
+    """--workers 2 with 4 of the 8 runs in flight at once on the study's one cluster and client:
+    every store holds the values the serial study's holds, bit for bit, and scores.json is
+    the same file; and it ends (no hang: see IN_FLIGHT_SCRIPT).
+
+    Failed before each run's shared inputs were scattered under keys of its own: the
+    runs' inputs went to the cluster under the same keys (("mf", "range_response")...), and
+    the short-pulse reference was computed with another run's range response."""
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-c", IN_FLIGHT_SCRIPT, str(IN_FLIGHT_LIMIT_S), str(IN_FLIGHT)]
+    cmd += ["study", str(STUDY), "--out", str(out), "--workers", "2"]
+    t0 = time.perf_counter()
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=IN_FLIGHT_LIMIT_S + 60)
+    assert res.returncode == 0, (
+        f"the study with {IN_FLIGHT} runs in flight failed or hung (rc {res.returncode}, "
+        f"{time.perf_counter() - t0:.0f} s):\n{res.stderr[-20000:]}"
+    )
+    stores = sorted(p.relative_to(study) for p in (study / "runs").rglob("*.zarr"))
+    assert stores == sorted(p.relative_to(out) for p in (out / "runs").rglob("*.zarr"))
+    assert len(stores) == 8
+    for rel in stores:
+        ours, theirs = _store_values(out / rel), _store_values(study / rel)
+        assert ours.keys() == theirs.keys(), rel
+        for name in theirs:
+            assert np.array_equal(
+                ours[name], theirs[name], equal_nan=ours[name].dtype.kind in "fc"
+            ), (
+                rel,
+                name,
+            )
+    assert (out / "scores.json").read_text() == (study / "scores.json").read_text()
+    ours_m = json.loads((out / "pasim-study.json").read_text())
+    theirs_m = json.loads((study / "pasim-study.json").read_text())
+    assert list(ours_m["runs"]) == list(theirs_m["runs"])  # recorded in the study's order
+    for key in ("beamwidths", "patterns", "hardware"):
+        assert ours_m.get(key) == theirs_m.get(key), key

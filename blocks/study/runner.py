@@ -131,15 +131,23 @@ def save(out: Path, state: dict[str, Any]) -> None:
 
 
 def finished(path: Path) -> bool:
-    """A run's store holds every chunk and every array its layout lists (one that lost an
-    array is run again with --resume, which writes the array again)."""
-    from pasim_graph.store import is_store, run_state
+    """A run's store is marked complete and holds every chunk and every array its layout
+    lists (one that lost an array is run again with --resume, which writes the array again).
+
+    Marked complete, not only every chunk done: a run in flight (a study's runs at once)
+    has every chunk done a moment before its last write, and cannot be read until then."""
+    from pasim_graph.store import COMPLETE, is_store, run_state
     from pasim_graph.store_check import missing_arrays
 
     if not path.exists() or not is_store(path):
         return False
     state = run_state(path)
-    return state is not None and bool(state[1].all()) and not missing_arrays(path)
+    return (
+        state is not None
+        and state[0].get(COMPLETE) == "true"
+        and bool(state[1].all())
+        and not missing_arrays(path)
+    )
 
 
 def unscored(study: Study, runs: list[Run], out: Path, scores: dict[str, Any]) -> list[str]:
@@ -177,10 +185,17 @@ def measure_beamwidth(run: Run, estimate: Run, sector: tuple[float, float], el: 
 
 
 def ensure_patterns(
-    study: Study, runs: list[Run], out: Path, state: dict[str, Any], log: Callable[[str], None]
+    study: Study,
+    runs: list[Run],
+    out: Path,
+    state: dict[str, Any],
+    log: Callable[[str], None],
+    pending: frozenset[str] = frozenset(),
 ) -> None:
     """Measure the antenna figures (:mod:`.patterns`) of every system, case and point whose
-    first-seed estimate is finished, once: kept in the manifest under ``patterns``."""
+    first-seed estimate is finished, once: kept in the manifest under ``patterns``. Runs
+    whose keys are ``pending`` count as not finished yet (runs in flight are taken in the
+    study's order, whichever ends first)."""
     from pasim_graph.store import open_sweep
 
     from .patterns import point_patterns
@@ -192,7 +207,7 @@ def ensure_patterns(
         if run.kind != "estimate" or run.seed != study.seeds[0] or bkey in patterns:
             continue
         path = out / "runs" / run.key
-        if not finished(path):
+        if run.key in pending or not finished(path):
             continue
         sweep, _ = open_sweep(path)
         t0 = time.perf_counter()
@@ -201,11 +216,16 @@ def ensure_patterns(
         )
         save(out, state)
         log(f"measured the antenna of {bkey}: {time.perf_counter() - t0:.1f} s")
-    ensure_hardware(study, runs, out, state, log)
+    ensure_hardware(study, runs, out, state, log, pending)
 
 
 def ensure_hardware(
-    study: Study, runs: list[Run], out: Path, state: dict[str, Any], log: Callable[[str], None]
+    study: Study,
+    runs: list[Run],
+    out: Path,
+    state: dict[str, Any],
+    log: Callable[[str], None],
+    pending: frozenset[str] = frozenset(),
 ) -> None:
     """Measure each system's pattern, waveform and spectrum (:mod:`.hardware`) once, from its
     first finished estimate (the first case, unswept where it has such a point): kept in the
@@ -217,7 +237,7 @@ def ensure_hardware(
     for run in sorted(runs, key=lambda r: r.point_name != "-"):
         if run.kind != "estimate" or run.seed != study.seeds[0] or run.system in hardware:
             continue
-        if not finished(out / "runs" / run.key):
+        if run.key in pending or not finished(out / "runs" / run.key):
             continue
         case = cases[run.case]
         t0 = time.perf_counter()
@@ -292,70 +312,103 @@ def execute(
     progress: bool,
     after_run: Callable[[], None],
     log: Callable[[str], None] = lambda s: print(s, file=sys.stderr),
+    at_once: int | None = None,
 ) -> dict[str, Any]:
-    """Run every store not yet finished; call ``after_run`` as each one finishes."""
+    """Run every store not yet finished; call ``after_run`` as each one finishes.
+
+    On a cluster (``workers`` or ``scheduler``) several runs are in flight at once (at most
+    ``at_once``, by default :func:`.inflight.runs_at_once`), recorded in the study's order
+    (:func:`.inflight.in_order`); without one, one run after another in this thread.
+
+    The study makes one client (and, with ``workers``, one LocalCluster), here in the calling
+    thread, and every run uses it: no run makes, warms up or closes a client of its own. One
+    client per run, made from the runs' threads at once, was seen to hang a study (8 runs
+    laid out, none of them sending its inputs to the cluster, for 19 min).
+    """
     from pasim_graph import __version__
-    from pasim_graph.dask_executor import DaskExecutor
+    from pasim_graph.dask_executor import (
+        LOCAL_SCHEDULERS,
+        DaskExecutor,
+        open_client,
+        warm_up_workers,
+    )
     from pasim_graph.executor import RunOptions
     from pasim_graph.provenance import provenance
+    from pasim_graph.resources import memory_available
 
+    from .inflight import RUN_MEMORY, in_order, runs_at_once
     from .integrity import identity
 
     t_start = time.perf_counter()
     todo = check_stores(study, runs, out, state)
-    cluster = None
-    if workers:
-        import dask
-        from distributed import LocalCluster
-
-        with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
-            cluster = LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
-            )
-        scheduler = cluster.scheduler_address
-    computed = 0
+    client: Any = None
+    cluster: Any = None
+    warmed: set[type] = set()  # block classes the workers have been sent to warm up
     kept = len(runs) - len(todo)
     if kept:
         log(f"keeping {kept} finished run(s) of {len(runs)}")
     ensure_patterns(study, runs, out, state, log)
-    try:
-        for i, run in enumerate(todo, 1):
-            path = out / "runs" / run.key
-            path.parent.mkdir(parents=True, exist_ok=True)
-            graph = run.graph(beamwidth(study, run, runs, state))
-            attrs = {
-                "title": "PASIM-graph simulated radar volume",
-                "Conventions": "Cf/Radial",
-                "version": "2.0",
-                "pasim_graph_version": __version__,
-                "graph": graph.text(),
-                "graph_file": str(study.system(run.system).graph),
-                "simulated": "true",
-                "source": "PASIM-graph simulation",
-                "study": study.file,
-                **identity(run),
-                **provenance(run.system, f"pasim study {study.file}"),
-            }
+    computed = 0
+    pending = [r.key for r in todo]  # not yet recorded: the study's order
+
+    def start(run: Run) -> Callable[[], float]:
+        # In the calling thread, in the study's order: the graph (and the beamwidth it may
+        # measure, kept in the manifest) is built here, never by two runs at once.
+        path = out / "runs" / run.key
+        path.parent.mkdir(parents=True, exist_ok=True)
+        graph = run.graph(beamwidth(study, run, runs, state))
+        attrs = {
+            "title": "PASIM-graph simulated radar volume",
+            "Conventions": "Cf/Radial",
+            "version": "2.0",
+            "pasim_graph_version": __version__,
+            "graph": graph.text(),
+            "graph_file": str(study.system(run.system).graph),
+            "simulated": "true",
+            "source": "PASIM-graph simulation",
+            "study": study.file,
+            **identity(run),
+            **provenance(run.system, f"pasim study {study.file}"),
+        }
+        executor = DaskExecutor(
+            graph, RunOptions(seed=run.seed), scheduler=scheduler, progress=progress, client=client
+        )
+        if client is not None:
+            # Once per study for each block class: sent, not waited for (this thread builds
+            # the next run meanwhile).
+            new = [c for c in executor.worker_classes() if c not in warmed]
+            if new:
+                warm_up_workers(client, new, wait=False)
+                warmed.update(new)
+
+        def one() -> float:
             t0 = time.perf_counter()
-            executor = DaskExecutor(
-                graph, RunOptions(seed=run.seed), scheduler=scheduler, progress=progress
-            )
-            executor.run(
-                path,
-                attrs,
-                resume=path.exists(),
-                command=f"pasim study {study.file}",
-            )
-            dt = time.perf_counter() - t0
-            computed += 1
-            state["runs"][run.key] = {"seconds": round(dt, 2), "kind": run.kind}
-            save(out, state)
-            elapsed = time.perf_counter() - t_start
-            left = elapsed / i * (len(todo) - i)
-            log(f"[{kept + i}/{len(runs)}] {run.key}: {dt:.1f} s; about {left:.0f} s left")
-            ensure_patterns(study, runs, out, state, log)
-            after_run()
+            executor.run(path, attrs, resume=path.exists(), command=f"pasim study {study.file}")
+            return time.perf_counter() - t0
+
+        return one
+
+    def record(run: Run, dt: float) -> None:
+        nonlocal computed
+        computed += 1
+        state["runs"][run.key] = {"seconds": round(dt, 2), "kind": run.kind}
+        save(out, state)
+        elapsed = time.perf_counter() - t_start
+        left = elapsed / computed * (len(todo) - computed)
+        log(f"[{kept + computed}/{len(runs)}] {run.key}: {dt:.1f} s; about {left:.0f} s left")
+        ensure_patterns(study, runs, out, state, log, frozenset(pending[computed:]))
+        after_run()
+
+    if todo and (workers or scheduler not in (None, *LOCAL_SCHEDULERS)):
+        client, cluster = open_client(workers, scheduler)
+        if cluster is not None:
+            scheduler = cluster.scheduler_address
+    try:
+        limit = at_once if at_once is not None else runs_at_once(client)
+        in_order(todo, start, record, limit, lambda: memory_available() >= RUN_MEMORY)
     finally:
+        if client is not None:
+            client.close()
         if cluster is not None:
             cluster.close()
     return {"computed": computed, "kept": kept, "seconds": time.perf_counter() - t_start}
