@@ -47,7 +47,9 @@ def report(
     JSON (``args.json``) or ``text``. An error of ``errors`` is the user's, said after
     ``where`` (the graph or block); a plot that cannot be written names ``--plot``."""
     if args.plot and not Path(args.plot).resolve().parent.is_dir():
-        raise UserError(f"--plot {args.plot}: the directory does not exist")
+        # Checked before the analysis, worded as every other output in a missing folder.
+        folder = Path(args.plot).parent
+        raise UserError(f"--plot {args.plot}: the folder {folder} does not exist")
     try:
         result = analyse()
     except errors as exc:
