@@ -100,6 +100,9 @@ def test_the_sample_truth_is_read_at_the_azimuth_of_its_raw_rays():
     assert check_truth_at_raw_azimuths(SAMPLE) == 40
 
 
+# The whole public file (359 rays): a longer check, with -m slow where ../shared is at hand;
+# the default suite reads the sample cut from it, so no format test skips on a fresh clone.
+@pytest.mark.slow
 @pytest.mark.skipif(not BIG.exists(), reason="the public IRIS file in ../shared is absent")
 def test_the_public_file_truth_is_read_at_the_azimuth_of_its_raw_rays():
     assert check_truth_at_raw_azimuths(BIG) >= 350
