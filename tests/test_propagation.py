@@ -57,7 +57,9 @@ SECTOR = "297:303"
 #: at 5.6 GHz), KDP scaled from the truth's 2.8 GHz by the frequency ratio.
 ALPHA_C, BETA_C, RATIO = 0.07, 0.015, 5.6 / 2.8
 #: One-way half-power width of the 10 m CPPAR at 5.6 GHz: its 1.1 deg at 2.8 GHz (paper,
-#: Table 6) halved with the wavelength.
+#: Table 6) halved with the wavelength. That is the V beam's width; this graph's H beam is
+#: 0.87 deg (its S-band patch, docs/propagation.md), so this Gaussian is an approximation the
+#: DBZH test's bounds allow for; the ZDR test uses the antenna's own patterns instead.
 BEAMWIDTH_DEG = 0.55
 
 
