@@ -62,7 +62,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         check_scheduler,
     )
     from .executor import BlockError, RunOptions
-    from .provenance import provenance
+    from .provenance import run_attrs
     from .scores import print_volume, volume_scores
     from .steering import SteeringError
     from .store import StoreError, StoreExistsError, open_volume
@@ -90,16 +90,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     )
     command = " ".join(["pasim", *sys.argv[1:]]) if sys.argv else "pasim run"
     attrs = {
-        "title": "PASIM-graph simulated radar volume",
-        "Conventions": "Cf/Radial",
-        "version": "2.0",
-        "pasim_graph_version": __version__,
-        "graph": graph.text(),
-        "graph_file": str(args.graph),
+        **run_attrs(graph.text(), str(args.graph), Path(args.graph).stem, command),
         "seed": args.seed,
-        "simulated": "true",
-        "source": "PASIM-graph simulation",
-        **provenance(Path(args.graph).stem, command),
     }
     t0 = time.perf_counter()
     try:

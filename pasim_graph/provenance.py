@@ -31,3 +31,19 @@ def provenance(instrument: str, command: str, now: dt.datetime | None = None) ->
         "history": f"{when}: {command} (pasim-graph {__version__})",
         "platform_is_mobile": "false",
     }
+
+
+def run_attrs(graph_text: str, graph_file: str, instrument: str, command: str) -> dict[str, Any]:
+    """The root attributes every simulated store starts from (``pasim run`` and each run of a
+    study add their own): what wrote it, the graph as run, and :func:`provenance`."""
+    return {
+        "title": "PASIM-graph simulated radar volume",
+        "Conventions": "Cf/Radial",
+        "version": "2.0",
+        "pasim_graph_version": __version__,
+        "graph": graph_text,
+        "graph_file": graph_file,
+        "simulated": "true",
+        "source": "PASIM-graph simulation",
+        **provenance(instrument, command),
+    }

@@ -325,7 +325,6 @@ def execute(
     client per run, made from the runs' threads at once, was seen to hang a study (8 runs
     laid out, none of them sending its inputs to the cluster, for 19 min).
     """
-    from pasim_graph import __version__
     from pasim_graph.dask_executor import (
         LOCAL_SCHEDULERS,
         DaskExecutor,
@@ -333,7 +332,7 @@ def execute(
         warm_up_workers,
     )
     from pasim_graph.executor import RunOptions
-    from pasim_graph.provenance import provenance
+    from pasim_graph.provenance import run_attrs
     from pasim_graph.resources import memory_available
 
     from .inflight import RUN_MEMORY, in_order, runs_at_once
@@ -358,17 +357,14 @@ def execute(
         path.parent.mkdir(parents=True, exist_ok=True)
         graph = run.graph(beamwidth(study, run, runs, state))
         attrs = {
-            "title": "PASIM-graph simulated radar volume",
-            "Conventions": "Cf/Radial",
-            "version": "2.0",
-            "pasim_graph_version": __version__,
-            "graph": graph.text(),
-            "graph_file": str(study.system(run.system).graph),
-            "simulated": "true",
-            "source": "PASIM-graph simulation",
+            **run_attrs(
+                graph.text(),
+                str(study.system(run.system).graph),
+                run.system,
+                f"pasim study {study.file}",
+            ),
             "study": study.file,
             **identity(run),
-            **provenance(run.system, f"pasim study {study.file}"),
         }
         executor = DaskExecutor(
             graph, RunOptions(seed=run.seed), scheduler=scheduler, progress=progress, client=client
