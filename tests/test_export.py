@@ -265,3 +265,18 @@ def test_a_value_odim_cannot_code_is_refused():
     tree = xr.DataTree.from_dict({"/": xr.Dataset(), "sweep_0": sweep})
     with pytest.raises(ExportError, match="sweep_0/DBZH spans 10 to 400"):
         odim_encode(tree, "x.zarr")
+
+
+def test_an_rhi_is_refused_for_odim():
+    """ODIM_H5's polar volume holds PPIs: an RHI is refused for it, naming the formats that
+    hold one."""
+    from pasim_blocks.products.export import ExportError, check_odim_scans
+
+    sweep = xr.Dataset({"sweep_mode": "rhi"})
+    tree = xr.DataTree.from_dict({"/": xr.Dataset(), "sweep_0": sweep})
+    with pytest.raises(ExportError, match=r"sweep_0 is an RHI.*cfradial1 or cfradial2"):
+        check_odim_scans(tree, "x.zarr")
+    check_odim_scans(
+        xr.DataTree.from_dict({"sweep_0": xr.Dataset({"sweep_mode": "azimuth_surveillance"})}),
+        "x.zarr",
+    )

@@ -168,6 +168,22 @@ def export_tree(tree: xr.DataTree, store: str | Path) -> xr.DataTree:
     return xr.DataTree.from_dict(out)
 
 
+def check_odim_scans(tree: xr.DataTree, store: str | Path) -> None:
+    """Refuse an RHI for ODIM: its polar volume (PVOL, SCAN) holds PPIs only, and an RHI
+    written there is read back with azimuth and elevation exchanged (Py-ART's reader)."""
+    for name, node in tree.children.items():
+        mode = (
+            str(node["sweep_mode"].values)
+            if "sweep_mode" in node.data_vars
+            else "azimuth_surveillance"
+        )
+        if mode == "rhi":
+            raise ExportError(
+                f"{store}: {name} is an RHI, which ODIM_H5's polar volume cannot hold; "
+                "export it as cfradial1 or cfradial2"
+            )
+
+
 def odim_encode(tree: xr.DataTree, store: str | Path) -> None:
     """Give each exported field of ``tree`` its ODIM uint16 coding (in place), refusing a
     value the coding cannot hold."""
@@ -231,6 +247,7 @@ def export_store(store: str | Path, fmt: str, out: str | Path | None = None) -> 
     with tree:
         volume = export_tree(tree, store)
     if fmt == "odim":
+        check_odim_scans(volume, store)
         odim_encode(volume, store)
     partial = path.with_name(f".{path.name}.partial-{os.getpid()}")
     try:
