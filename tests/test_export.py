@@ -226,6 +226,9 @@ def test_bad_input_is_refused_in_one_line_and_nothing_is_written(case, volume, t
         out.write_text("keep me")
     elif case == "missing folder":
         out = tmp_path / "nowhere" / "out.h5"
+    elif case == "inside the store":
+        shutil.copytree(volume, tmp_path / "copy.zarr")
+        store, out = str(tmp_path / "copy.zarr"), tmp_path / "copy.zarr" / "out.h5"
     else:
         shutil.copytree(volume, tmp_path / "copy.zarr")
         store = str(tmp_path / "copy.zarr")
@@ -244,6 +247,7 @@ def test_bad_input_is_refused_in_one_line_and_nothing_is_written(case, volume, t
         "unknown format": "expected one of cfradial1, cfradial2, odim",
         "existing output": "exists",
         "missing folder": "does not exist",
+        "inside the store": "is inside the store",
         "incomplete": "did not finish",
     }[case]
     assert expected in err

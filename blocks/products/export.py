@@ -125,12 +125,15 @@ def check_format(fmt: str) -> None:
         raise ExportError(f"--format {fmt}: expected one of {', '.join(FORMATS)}")
 
 
-def check_out(out: Path) -> None:
-    """Refuse an output that exists or whose folder does not."""
+def check_out(out: Path, store: str | Path) -> None:
+    """Refuse an output that exists, whose folder does not, or inside the store (a file put
+    there would be a foreign file in it)."""
     if out.exists() or out.is_symlink():
         raise ExportError(f"{out} exists; it is left untouched: choose another --out")
     if not out.resolve().parent.is_dir():
         raise ExportError(f"--out {out}: the folder {out.parent} does not exist")
+    if Path(store).resolve() in out.resolve().parents:
+        raise ExportError(f"--out {out} is inside the store {store}; write it elsewhere")
 
 
 def _fields(sweep: xr.Dataset, beam_dim: str) -> list[str]:
@@ -239,7 +242,7 @@ def export_store(store: str | Path, fmt: str, out: str | Path | None = None) -> 
     """
     check_format(fmt)
     path = Path(out) if out is not None else default_out(store, fmt)
-    check_out(path)
+    check_out(path, store)
     try:
         tree = open_finished(store)
     except NotAStoreError as exc:
@@ -252,10 +255,13 @@ def export_store(store: str | Path, fmt: str, out: str | Path | None = None) -> 
     partial = path.with_name(f".{path.name}.partial-{os.getpid()}")
     try:
         _write(volume, fmt, partial)
-        check_out(path)  # nothing appeared there while the file was written
+        check_out(path, store)  # nothing appeared there while the file was written
         os.replace(partial, path)
-    except (OSError, ValueError) as exc:
-        raise ExportError(f"--out {path}: {exc}") from None
+    except ExportError:
+        raise
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        # A full disk, an unwritable folder, or a store xradar's writer cannot map.
+        raise ExportError(f"--out {path}: could not write {fmt} ({exc})") from None
     finally:
         with contextlib.suppress(FileNotFoundError):
             partial.unlink()
