@@ -253,6 +253,24 @@ def test_bad_input_is_refused_in_one_line_and_nothing_is_written(case, volume, t
     assert expected in err
 
 
+def test_a_write_that_fails_leaves_no_file(volume, tmp_path, monkeypatch, capsys):
+    """A full disk while the writer writes: one line naming --out, the partial file gone."""
+    import errno
+
+    from pasim_blocks.products import export
+
+    def full(tree, fmt, path):
+        path.write_bytes(b"half a file")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(export, "_write", full)
+    out = tmp_path / "out.nc"
+    code, err = pasim(capsys, "export", str(volume), "--format", "cfradial1", "--out", str(out))
+    assert code == 2 and err.count("\n") == 1, err
+    assert f"--out {out}: could not write cfradial1" in err and "No space left" in err
+    assert os.listdir(tmp_path) == []
+
+
 def test_without_out_the_file_is_named_after_the_store(volume, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     code, err = pasim(capsys, "export", str(volume), "--format", "cfradial2")
