@@ -145,6 +145,8 @@ def _check_pyart(fmt: str, volume, path) -> None:
         np.testing.assert_allclose(radar.elevation["data"][rays], want["elevation"], atol=1e-4)
         np.testing.assert_allclose(radar.fixed_angle["data"][k], want["sweep_fixed_angle"])
         for name in FIELDS:
+            if fmt != "odim":  # ODIM_H5 has no units or names beyond the quantity's own
+                assert radar.fields[name]["units"] == want[name].attrs["units"], name
             data = radar.fields[name]["data"][rays][order][:, : want.sizes["range"]]
             got = np.ma.filled(np.ma.asarray(data).astype(np.float64), np.nan)
             _same(got, want[name].values, _bound(fmt, name), f"sweep {k} {name}")
@@ -171,6 +173,20 @@ def test_the_storm_volume_reads_back_in_every_format(tmp_path):
         _check_pyart(fmt, store, files[fmt])
     truth = _store_sweeps(store)[0]["truth_DBZH"].values
     assert np.isnan(truth).any() and np.isfinite(truth).any()
+
+
+def test_a_truth_field_says_it_is_the_truth(exported):
+    """In CF/Radial the truth keeps its moment's standard name and units, but its short and
+    long names are its own, never the estimate's (a tool going by them takes the right one)."""
+    import netCDF4
+
+    with netCDF4.Dataset(exported["cfradial1"]) as f:
+        for moment in MOMENTS:
+            estimate, truth = f[moment], f[f"truth_{moment}"]
+            assert truth.standard_name == estimate.standard_name
+            assert truth.units == estimate.units
+            assert truth.short_name == f"truth_{moment}" and estimate.short_name == moment
+            assert truth.long_name == f"{estimate.long_name}, truth (simulation input)"
 
 
 def test_odim_holds_16_bit_integers_with_the_stated_gain(exported):

@@ -28,6 +28,7 @@ import os
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -167,8 +168,20 @@ def export_tree(tree: xr.DataTree, store: str | Path) -> xr.DataTree:
             for n, v in sweep.data_vars.items()
             if n in fields or (v.ndim <= 1 and v.dims in ((), (beam_dim,)))
         ]
-        out[name] = sweep[keep].drop_encoding().load()
+        sweep = sweep[keep].drop_encoding().load()
+        for field in fields:
+            if field.startswith(TRUTH):
+                sweep[field].attrs = truth_attrs(field, sweep[field].attrs)
+        out[name] = sweep
     return xr.DataTree.from_dict(out)
+
+
+def truth_attrs(name: str, attrs: dict[str, Any]) -> dict[str, Any]:
+    """A truth field's attributes in an exported file: its moment's standard name and units,
+    its own ``short_name`` and a ``long_name`` that says it is the truth, so that a tool that
+    goes by either never takes it for the estimate (the store gives both the moment's)."""
+    long_name = attrs.get("long_name", name.removeprefix(TRUTH))
+    return {**attrs, "short_name": name, "long_name": f"{long_name}, truth (simulation input)"}
 
 
 def check_odim_scans(tree: xr.DataTree, store: str | Path) -> None:
