@@ -8,12 +8,13 @@ quantises it:
 - every sweep of the store (a volume exports all of them);
 - the estimated moments under their own names (``DBZH``, ``ZDR``, ``RHOHV``, ``PHIDP``,
   ``VRADH``, ``WRADH``, those the store holds), the truth on the same gates as extra fields
-  under the store's names (``truth_DBZH``, ...) and the expected SNR ``SNRH``; the errors, the
-  scored-gate mask and the I/Q cubes stay in the store (the errors are the estimate minus the
-  truth, the cubes are not radar moments);
+  under the store's names (``truth_DBZH``, ...; :func:`truth_attrs`); the errors, the
+  scored-gate mask, the expected SNR ``SNRH`` (minus infinity where there is no echo, which
+  ODIM cannot code) and the I/Q cubes (not radar moments) stay in the store;
 - CF/Radial files keep each field as the store's float32, bit for bit; ODIM_H5 stores each as
   a 16-bit unsigned integer with the gain and offset of :data:`ODIM_CODING` (value =
-  offset + gain x raw), so a value read back is within ``gain / 2`` of the store's, the raw
+  offset + gain x raw), so a value read back is within ``gain / 2`` of the store's
+  (:func:`odim_bound`), the raw
   value 65535 is *nodata* (a censored or missing gate, NaN in the store) and 0 is *undetect*
   (never written: the ranges below start at raw 1).
 
@@ -250,8 +251,8 @@ def export_store(store: str | Path, fmt: str, out: str | Path | None = None) -> 
 
     Raises :class:`ExportError` (one line, nothing written) for an unknown format, an output
     that exists or whose folder does not, a path that is not a finished PASIM-graph store
-    (missing, another directory, an interrupted or damaged run), a store without moments, or
-    an ODIM field beyond its coding.
+    (missing, another directory, an interrupted or damaged run), a store without moments, an
+    RHI or a field beyond its coding for ODIM, or a file the writer cannot write.
     """
     check_format(fmt)
     path = Path(out) if out is not None else default_out(store, fmt)
