@@ -14,9 +14,8 @@ quantises it:
 - CF/Radial files keep each field as the store's float32, bit for bit; ODIM_H5 stores each as
   a 16-bit unsigned integer with the gain and offset of :data:`ODIM_CODING` (value =
   offset + gain x raw), so a value read back is within ``gain / 2`` of the store's
-  (:func:`odim_bound`), the raw
-  value 65535 is *nodata* (a censored or missing gate, NaN in the store) and 0 is *undetect*
-  (never written: the ranges below start at raw 1).
+  (:func:`odim_bound`), the raw value 65535 is *nodata* (a censored or missing gate, NaN in
+  the store) and 0 is *undetect* (never written: the ranges below start at raw 1).
 
 Everything is checked before anything is written, and the file is written under a temporary
 name beside ``out`` and renamed only when whole, so a refused or failed export leaves nothing.
