@@ -2,11 +2,10 @@
 
 Each file of a two-sweep volume (a tiny uniform scene with censored gates by default; the
 bundled storm's KLBB volume, with its no-data truth gates, in a slow test) is read back by
-xradar and by Py-ART
-(independent readers: xradar's CF/Radial 1 and ODIM backends, ``xarray.open_datatree`` for
-CF/Radial 2, ``pyart.io.read_cfradial``, Py-ART's xradar bridge and
-``pyart.aux_io.read_odim_h5``) and every sweep's six moments and six truth fields are compared
-with the store's: bit for bit in CF/Radial (float32 in, float32 out), and within half the
+xradar and by Py-ART (independent readers: xradar's CF/Radial 1 and ODIM backends,
+``xarray.open_datatree`` for CF/Radial 2, ``pyart.io.read_cfradial``, Py-ART's xradar bridge
+and ``pyart.aux_io.read_odim_h5``) and every sweep's six moments and six truth fields are
+compared with the store's: bit for bit in CF/Radial (float32 in, float32 out), and within half the
 stated gain in ODIM_H5 (16-bit integers; the bound is the quantisation's, plus float32
 rounding). Bad input is refused in one line with nothing written.
 """
@@ -63,7 +62,7 @@ def _export(volume) -> dict[str, object]:
 
 @pytest.fixture(scope="module")
 def volume(tmp_path_factory):
-    out = tmp_path_factory.mktemp("export") / "storm.zarr"
+    out = tmp_path_factory.mktemp("export") / "tiny.zarr"
     _run(TINY, out)
     return out
 
@@ -291,7 +290,7 @@ def test_without_out_the_file_is_named_after_the_store(volume, tmp_path, monkeyp
     monkeypatch.chdir(tmp_path)
     code, err = pasim(capsys, "export", str(volume), "--format", "cfradial2")
     assert code == 0, err
-    assert os.listdir(tmp_path) == ["storm_cfradial2.nc"]
+    assert os.listdir(tmp_path) == ["tiny_cfradial2.nc"]
     assert "2 sweep(s)" in err and "truth_DBZH" in err
 
 
