@@ -129,7 +129,8 @@ def finished(tmp_path_factory) -> Path:
     study = write(root, STUDY)
     from pasim_graph.cli import main
 
-    assert main(["study", str(study), "--out", str(root / "out")]) == 0
+    # (scores only: the report is tests/test_study_report.py's subject)
+    assert main(["study", str(study), "--out", str(root / "out"), "--no-report"]) == 0
     return root
 
 

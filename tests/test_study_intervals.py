@@ -178,7 +178,7 @@ def _run(tmp: Path, seeds: str) -> dict:
     text = (FIX / "tiny_study.yaml").read_text()
     text = text.replace("seeds: [0]", f"seeds: {seeds}").replace("graph: ", f"graph: {FIX}/")
     (tmp / "study.yaml").write_text(text)
-    assert main(["study", str(tmp / "study.yaml"), "--out", str(tmp / "out")]) == 0
+    assert main(["study", str(tmp / "study.yaml"), "--out", str(tmp / "out"), "--no-report"]) == 0
     return {**json.loads((tmp / "out" / "scores.json").read_text()), "_out": tmp / "out"}
 
 

@@ -175,7 +175,17 @@ def wait_for_runs(manifest: Path, proc: subprocess.Popen, n: int) -> None:
 
 def test_kill_9_mid_study_then_resume(tmp_path, study):
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "pasim_graph", "study", str(STUDY), "--out", str(out)]
+    # (scores only: the report is tests/test_study_report.py's subject)
+    cmd = [
+        sys.executable,
+        "-m",
+        "pasim_graph",
+        "study",
+        str(STUDY),
+        "--out",
+        str(out),
+        "--no-report",
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     manifest = out / "pasim-study.json"
     wait_for_runs(manifest, proc, 3)
@@ -204,7 +214,7 @@ def test_resume_writes_again_an_array_removed_from_a_run(tmp_path, study):
     shutil.copytree(study, out)
     run = next((out / "runs").rglob("estimate-seed0.zarr"))
     shutil.rmtree(run / "sweep_0" / "error_ZDR")
-    assert main(["study", str(STUDY), "--out", str(out), "--resume"]) == 0
+    assert main(["study", str(STUDY), "--out", str(out), "--resume", "--no-report"]) == 0
     assert scores(out) == scores(study)
     original = study / run.relative_to(out)
     np.testing.assert_array_equal(_errors(run, "ZDR")[0], _errors(original, "ZDR")[0])
@@ -218,7 +228,17 @@ def test_a_signalled_study_ends_with_one_line_and_resumes(tmp_path, study, sig):
     """SIGINT / SIGTERM: exit 130 / 143, one line saying how to go on, no traceback, no lock
     left in any run's store; --resume then gives the uninterrupted study's scores."""
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "pasim_graph", "study", str(STUDY), "--out", str(out)]
+    # (scores only: the report is tests/test_study_report.py's subject)
+    cmd = [
+        sys.executable,
+        "-m",
+        "pasim_graph",
+        "study",
+        str(STUDY),
+        "--out",
+        str(out),
+        "--no-report",
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     manifest = out / "pasim-study.json"
     wait_for_runs(manifest, proc, 2)
@@ -277,7 +297,7 @@ def test_a_run_store_damaged_on_disk_is_named_not_a_traceback(tmp_path, capsys, 
     raw = bytearray(chunk.read_bytes())
     raw[len(raw) // 2] ^= 0xFF
     chunk.write_bytes(bytes(raw))
-    code = main(["study", str(STUDY), "--out", str(copy), "--resume"])
+    code = main(["study", str(STUDY), "--out", str(copy), "--resume", "--no-report"])
     err = capsys.readouterr().err
     assert "Traceback" not in err, err
     if code == 2:
@@ -336,13 +356,16 @@ def test_a_study_with_every_run_in_flight_is_the_serial_study(tmp_path, study):
     the short-pulse reference was computed with another run's range response."""
     out = tmp_path / "out"
     cmd = [sys.executable, "-c", IN_FLIGHT_SCRIPT, str(IN_FLIGHT_LIMIT_S), str(IN_FLIGHT)]
-    cmd += ["study", str(STUDY), "--out", str(out), "--workers", "2"]
+    cmd += ["study", str(STUDY), "--out", str(out), "--workers", "2", "--no-report"]
     t0 = time.perf_counter()
     res = subprocess.run(cmd, capture_output=True, text=True, timeout=IN_FLIGHT_LIMIT_S + 60)
     assert res.returncode == 0, (
         f"the study with {IN_FLIGHT} runs in flight failed or hung (rc {res.returncode}, "
         f"{time.perf_counter() - t0:.0f} s):\n{res.stderr[-20000:]}"
     )
+    # --no-report: the scores and stores only, and the line that says how to draw it later.
+    assert not (out / "report.html").exists()
+    assert f"pasim study {out} --report-only draws it" in res.stderr, res.stderr
     stores = sorted(p.relative_to(study) for p in (study / "runs").rglob("*.zarr"))
     assert stores == sorted(p.relative_to(out) for p in (out / "runs").rglob("*.zarr"))
     assert len(stores) == 8

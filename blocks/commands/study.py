@@ -50,11 +50,18 @@ class StudyCommand:
             help="plan and run a study above the size limit (more than "
             "1000 runs or an estimated 24 h)",
         )
-        parser.add_argument(
+        report = parser.add_mutually_exclusive_group()
+        report.add_argument(
             "--report-only",
             action="store_true",
             help="rebuild DIR/report.html from a study's folder (no run): pasim study DIR "
             "--report-only",
+        )
+        report.add_argument(
+            "--no-report",
+            action="store_true",
+            help="write the scores only, no report.html (on a cluster, or to draw it later "
+            "with --report-only: the figures take seconds per moment)",
         )
 
     def run(self, args: argparse.Namespace) -> int:
@@ -187,6 +194,12 @@ class StudyCommand:
             f"{report['kept']} kept, {report['seconds']:.1f} s",
             file=sys.stderr,
         )
+        if args.no_report:
+            print(
+                f"no report (--no-report): pasim study {out} --report-only draws it",
+                file=sys.stderr,
+            )
+            return 0
         from ..study.report import write_report
 
         print(f"wrote {write_report(out)}", file=sys.stderr)
