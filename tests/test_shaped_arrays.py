@@ -222,6 +222,18 @@ def test_rectangular_lattice_is_the_planar_array(electronics):
         assert np.max(np.abs(np.asarray(x) - np.asarray(y))) < 1e-9
 
 
+def test_projected_taylor_taper_on_a_face_is_the_sampled_design_taper():
+    """On a flat face the columns' projected positions are uniformly spaced, and the
+    continuous Taylor taper there (``taper_axis: projected``, fitted to scipy's window) is
+    scipy's own samples (``columns``): the fields agree within 1e-9 at a beam 20 deg off."""
+    common = dict(n_x=20, n_y=4, face_azimuth_deg=0.0, support_deg=1.0, grid_step_deg=0.5)
+    a = LatticeArray(name="a", taper_axis="columns", **common)
+    b = LatticeArray(name="a", taper_axis="projected", **common)
+    az = np.linspace(-10.0, 50.0, 301)
+    fa, fb = a.fields_at(20.0, 0.0, az, 0 * az), b.fields_at(20.0, 0.0, az, 0 * az)
+    assert np.max(np.abs(fa.h_co - fb.h_co)) < 1e-9
+
+
 def test_triangular_lattice_moves_the_elevation_grating_lobe_out():
     """Columns a lambda apart vertically (dy = lambda) steered 30 deg up: a rectangular
     lattice's reciprocal lattice puts a grating lobe at sin(el) = 0.5 - 1 (-30 deg) at full

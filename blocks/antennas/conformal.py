@@ -144,6 +144,13 @@ class ConformalArray(ArrayAntenna):
                 f"normals; this array has normals tilted up to {np.abs(tilt).max():.3g} deg"
             )
         self.element_model = self.make_element(resource)
+        # The phase a channel commands is that of its elements' centre (all its elements).
+        n, members = self.layout.n_channels, self.layout.channel.ravel()
+        positions = self.layout.positions().reshape(-1, 3)
+        count = np.maximum(np.bincount(members, minlength=n), 1)
+        self.channel_centre = np.stack(
+            [np.bincount(members, positions[:, i], minlength=n) / count for i in range(3)], axis=1
+        )
         m = self.layout.stack_m.size
         self.taper_stack = (
             np.ones(1)
@@ -193,9 +200,12 @@ class ConformalArray(ArrayAntenna):
             )
             return np.asarray(taper[rank.ravel()])
         lo, hi = across.min(), across.max()
-        x = (across - (lo + hi) / 2) / (hi - lo)  # -1/2 .. 1/2 between the outer columns
+        # -1/2 .. 1/2 over the aperture, whose edges are half a column spacing (of the
+        # projected positions, on average) beyond the outer columns: on a uniform line, the
+        # design taper's own samples.
+        x = (across - (lo + hi) / 2) / (hi - lo) * (n - 1) / n
         if p["taper"] == "taylor":
-            return taylor_continuous(x * (n - 1) / n, n, p["taylor_sll_db"], p["taylor_nbar"])
+            return taylor_continuous(x, n, p["taylor_sll_db"], p["taylor_nbar"])
         from scipy.special import i0
 
         w = i0(p["kaiser_beta"] * np.sqrt(np.clip(1 - (2 * x) ** 2, 0, None)))
@@ -226,17 +236,10 @@ class ConformalArray(ArrayAntenna):
         channel = layout.channel[act]
         if self.channel.ideal and p["subarray_feed"] == "steered":
             return ideal, ideal, act  # every element at its own commanded weight
-        n = layout.n_channels
         amplitude = np.abs(ideal)
-        total = np.bincount(channel.ravel(), amplitude.ravel(), minlength=n)
-        # The phase a channel commands: that of its elements' centre (all its elements).
-        centre = np.zeros((n, 3))
-        for i in range(3):
-            coordinate = layout.positions()[..., i].ravel()
-            centre[:, i] = np.bincount(layout.channel.ravel(), coordinate, minlength=n)
-        centre /= np.maximum(np.bincount(layout.channel.ravel(), minlength=n), 1)[:, None]
+        total = np.bincount(channel.ravel(), amplitude.ravel(), minlength=layout.n_channels)
         r0 = _direction(np.array([steer_az_deg]), np.array([steer_el_deg]))[0]
-        commanded = -self.k * (centre @ r0)
+        commanded = -self.k * (self.channel_centre @ r0)
         share = np.divide(
             amplitude, total[channel], out=np.zeros_like(amplitude), where=total[channel] > 0
         )
