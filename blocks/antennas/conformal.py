@@ -359,7 +359,7 @@ class ConformalArray(ArrayAntenna):
         radial = np.linalg.norm(position - np.outer(along, a), axis=1).max()
         extent = np.ptp(along) + np.ptp(layout.stack_m)
         n_phi = int(2 * self.k * radial) + 64
-        n_psi = int(4 * self.k * np.ptp(along)) + 33
+        n_psi = int(4 * self.k * np.ptp(along) + self.k * radial / 16) + 33
         e1 = np.cross(a, [0.0, 0.0, 1.0] if abs(a[2]) < 0.9 else [1.0, 0.0, 0.0])
         e1 /= np.linalg.norm(e1)
         e2 = np.cross(a, e1)
