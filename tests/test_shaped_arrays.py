@@ -139,6 +139,11 @@ def test_cylinder_from_its_element_file_equals_antenna_cylindrical():
     are 1.5-2 deg out) agree within 0.05 dB, at broadside and at a beam 0.35 columns off a
     sector centre at 0.5 deg elevation; same broadside gain within 0.05 dB."""
     cylinder, conformal, resource = _cylinders()
+    # The file is the graph's cylinder (benchmarks/make_cppar10_elements.py is up to date).
+    mine, theirs = resource[0], cylinder.element_layout()
+    np.testing.assert_allclose(mine.column_position, theirs.column_position, atol=1e-6)
+    np.testing.assert_allclose(mine.stack_m, theirs.stack_m, atol=1e-6)
+    np.testing.assert_array_equal(mine.channel, theirs.channel)
     d = np.arange(-4.0, 4.0001, 0.02)
     off_centre = (413 + 77.5 + 0.35) * 360.0 / 624  # 283.18 deg
     assert cylinder.sector(off_centre)[1] == pytest.approx(0.35)
@@ -220,6 +225,19 @@ def test_rectangular_lattice_is_the_planar_array(electronics):
     a, b = planar.fields_at(300.0, 5.0, az, el, 7), lattice.fields_at(300.0, 5.0, az, el, 7)
     for x, y in zip(a, b, strict=True):
         assert np.max(np.abs(np.asarray(x) - np.asarray(y))) < 1e-9
+
+
+def test_planar_array_describes_its_elements_as_the_lattice_lays_them_out():
+    """antenna.planar's element_layout (its positions, normals and channels, not used by its
+    separable sums) is antenna.lattice's layout for the same parameters, per element and
+    per subarray."""
+    for extra in ({}, dict(steering="subarray", subarray_x=3, subarray_y=5)):
+        planar = PlanarPatchArray(name="p", face_tilt_deg=12.0, **PLANAR, **extra)
+        lattice_params = {k: v for k, v in extra.items() if k != "steering"}
+        mine = LatticeArray(name="l", face_tilt_deg=12.0, **PLANAR, **lattice_params).layout
+        theirs = planar.element_layout()
+        for field in ("column_position", "normal", "axis", "stack_m", "channel"):
+            np.testing.assert_allclose(getattr(theirs, field), getattr(mine, field), atol=1e-12)
 
 
 def test_projected_taylor_taper_on_a_face_is_the_sampled_design_taper():
