@@ -344,6 +344,35 @@ def test_element_file_round_trip_groups_columns(tmp_path):
         assert str(bad) in str(info.value) and "\n" not in str(info.value)
 
 
+def test_single_elements_are_tapered_across_and_up_as_the_lattices_columns():
+    """A lattice given as single elements (one element a column, as an irregular file is
+    read: tapered by the ranks of the elements' positions across the beam and up) against
+    antenna.lattice computing it by columns and stack: fields within 1e-9, with channel
+    errors drawn per element alike."""
+    from pasim_blocks.antennas.layouts import Layout
+
+    params = dict(n_x=6, n_y=4, face_azimuth_deg=200.0)
+    errors = dict(phase_error_deg=8.0, failure_probability=0.1, support_deg=1.0, grid_step_deg=0.5)
+    lattice = LatticeArray(name="antenna", **params, **errors)
+    grouped = lattice.layout
+    single = Layout(
+        column_position=grouped.positions().reshape(-1, 3),
+        normal=np.repeat(grouped.normal, grouped.stack_m.size, axis=0),
+        axis=grouped.axis,
+        stack_m=np.zeros(1),
+        channel=grouped.channel.reshape(-1, 1),
+    )
+    conformal = ElementFileArray(
+        name="antenna", path=ELEMENTS_CSV, active_sector_deg=360.0, broadside_azimuth_deg=200.0,
+        **errors,
+    )  # fmt: skip
+    az, el = np.meshgrid(np.linspace(170, 230, 61), np.linspace(-10, 50, 31))
+    a = lattice.fields_at(210.0, 25.0, az, el, 1)
+    b = conformal.fields_at(210.0, 25.0, az, el, 1, (single, None))
+    for x, y in zip(a, b, strict=True):
+        assert np.max(np.abs(np.asarray(x) - np.asarray(y))) < 1e-9
+
+
 def test_triangular_layout_raises_every_other_column():
     layout = lattice_layout(4, 3, 0.05, 0.06, 0.0, 0.0, "triangular")
     z = layout.positions()[..., 2]
@@ -435,6 +464,13 @@ def test_bad_configurations_are_named_at_validation(tmp_path, capsys):
     bad.write_text(text.replace("graphs/cppar10_elements.csv", str(tmp_path / "missing.csv")))
     code, err = pasim(capsys, "validate", str(bad))
     assert code == 2 and "missing.csv" in err and "Traceback" not in err
+    # A file that exists but holds a bad line: `pasim pattern` names the file and the line.
+    elements = tmp_path / "bad.csv"
+    elements.write_text("x_m,y_m,z_m,normal_x,normal_y,normal_z\n0,1,0,0,1,0\n0.05,1,0,0,two,0\n")
+    bad.write_text(text.replace("graphs/cppar10_elements.csv", str(elements)))
+    code, err = pasim(capsys, "pattern", str(bad))
+    assert code == 2 and "Traceback" not in err
+    assert f"element file {elements}, line 3: not a number" in err and len(err.splitlines()) == 1
 
 
 def test_pattern_command_measures_the_ring_graph(capsys):

@@ -211,6 +211,24 @@ class ConformalArray(ArrayAntenna):
         w = i0(p["kaiser_beta"] * np.sqrt(np.clip(1 - (2 * x) ** 2, 0, None)))
         return np.asarray(w / w.max())
 
+    def up_taper(self, columns: np.ndarray) -> np.ndarray:
+        """The taper up the active ``columns`` by the rank of their heights, for a layout
+        without a stack (one element a column: a file of single elements); 1 with a stack,
+        which is tapered along itself."""
+        from .tapers import design_taper
+
+        p = self.p
+        if self.layout.stack_m.size > 1 or p["taper"] == "uniform":
+            return np.ones(columns.size)
+        height = self.layout.column_position[columns, 2]
+        distinct, rank = np.unique(np.round(height / 1e-6), return_inverse=True)
+        if distinct.size == 1:
+            return np.ones(columns.size)
+        taper = design_taper(
+            distinct.size, p["taper"], p["taylor_sll_y_db"], p["taylor_nbar_y"], p["kaiser_beta"]
+        )
+        return np.asarray(taper[rank.ravel()])
+
     def _ideal_weights(
         self, steer_az_deg: float, steer_el_deg: float
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -222,7 +240,9 @@ class ConformalArray(ArrayAntenna):
                 f"antenna {self.name!r}: no element faces azimuth {steer_az_deg:g} deg within "
                 f"the active sector ({self.beam_sector_deg():g} deg)"
             )
-        amplitude = np.outer(self.across_taper(act, steer_az_deg), self.taper_stack)
+        amplitude = np.outer(
+            self.across_taper(act, steer_az_deg) * self.up_taper(act), self.taper_stack
+        )
         r0 = _direction(np.array([steer_az_deg]), np.array([steer_el_deg]))[0]
         phase = -self.k * (self.layout.positions()[act] @ r0)
         return amplitude * np.exp(1j * phase), phase, act
