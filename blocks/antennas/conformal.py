@@ -159,13 +159,13 @@ class ConformalArray(ArrayAntenna):
                 m, p["taper"], p["taylor_sll_y_db"], p["taylor_nbar_y"], p["kaiser_beta"]
             )
         )
-        self.norm = 1.0
         az0, el0 = self.broadside()
         w, _, act = self._ideal_weights(az0, el0)
-        f = self._evaluate(act, w, w, np.array([az0]), np.array([el0]))
-        self.norm = float(np.abs(f.h_co[0]))
-        if not self.norm > 0:
+        f = self._evaluate(act, w, w, np.array([az0]), np.array([el0]), norm=1.0)
+        norm = float(np.abs(f.h_co[0]))
+        if not norm > 0:
             raise ValueError(f"antenna {self.name!r}: no field at broadside ({az0:g}, {el0:g})")
+        self.norm = norm  # set once: other threads may already be evaluating
         self.prepared = True
 
     # ---- weights ---------------------------------------------------------------------------
@@ -294,10 +294,11 @@ class ConformalArray(ArrayAntenna):
         az: np.ndarray,
         el: np.ndarray,
         stack: bool = True,
+        norm: float | None = None,
     ) -> DualPolField:
         """Fields at the flat directions (``az``, ``el``) of the ``act`` columns weighted
         ``w_h``, ``w_v`` (columns x stack; with ``stack`` False, one weight a column and no
-        stack factor), divided by the normalisation."""
+        stack factor), divided by ``norm`` (default: the normalisation)."""
         layout = self.layout
         position = layout.column_position[act]
         normal_az = layout.normal_azimuth_deg[act]
@@ -322,7 +323,7 @@ class ConformalArray(ArrayAntenna):
                     if np.any(component):
                         weight = (b_h if i < 2 else b_v)[rows]
                         out[i, a:b] += np.sum(component * weight, axis=0)
-        return DualPolField(*(out / self.norm))
+        return DualPolField(*(out / (self.norm if norm is None else norm)))
 
     def _element_fields(
         self, normal_az: np.ndarray, tilt_deg: float, az: np.ndarray, el: np.ndarray
@@ -346,7 +347,8 @@ class ConformalArray(ArrayAntenna):
         if ideal is not self:
             ideal.prepare(resource)
             ideal.broadside_figures(resource)
-            self.omega, self.gain_db = ideal.omega, ideal.gain_db
+            self.gain_db = ideal.gain_db
+            self.omega = ideal.omega  # last: a filled omega says the figures are there
             return
         az0, el0 = self.broadside()
         co, _ = self.beam_grid(az0, el0, 0, resource)
