@@ -237,6 +237,23 @@ class CylindricalArray(ArrayAntenna):
     def channel_shape(self) -> tuple[int, ...]:
         return (self.p["columns"],)
 
+    def element_layout(self) -> Any:
+        """The elements' positions, normals and T/R channels (one a column) as a
+        :class:`~.layouts.Layout`: what ``antenna.conformal`` reads from an element file
+        (``benchmarks/make_cppar10_elements.py`` writes this one)."""
+        from .layouts import ring_layout
+
+        p = self.p
+        centre = p["first_column_azimuth_deg"] + (p["columns"] - 1) / 2 * self.column_step_deg
+        return ring_layout(
+            p["columns"],
+            self.radius_m,
+            360.0,
+            centre,
+            p["elements_per_column"],
+            p["spacing_y_m"],
+        )
+
     def _element(self, delta_deg: np.ndarray, el_deg: np.ndarray) -> list[np.ndarray]:
         """The four field components of one element ``delta_deg`` off its normal: (el, delta)."""
         from .geometry import face_geometry

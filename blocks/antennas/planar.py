@@ -182,6 +182,25 @@ class PlanarPatchArray(ArrayAntenna):
     def broadside(self) -> tuple[float, float]:
         return float(self.p["face_azimuth_deg"]), float(self.p["face_tilt_deg"])
 
+    def element_layout(self) -> Any:
+        """The elements' positions, normals and T/R channels as a :class:`~.layouts.Layout`
+        (what ``antenna.lattice`` computes element by element; the sums here stay separable)."""
+        from .layouts import lattice_layout
+
+        p = self.p
+        sub = p["steering"] == "subarray"
+        return lattice_layout(
+            p["n_x"],
+            p["n_y"],
+            p["spacing_x_m"],
+            p["spacing_y_m"],
+            p["face_azimuth_deg"],
+            p["face_tilt_deg"],
+            "rectangular",
+            p["subarray_x"] if sub else 1,
+            p["subarray_y"] if sub else 1,
+        )
+
     def channel_shape(self) -> tuple[int, ...]:
         p = self.p
         if p["steering"] == "subarray":
