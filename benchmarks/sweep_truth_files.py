@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
+import re
 import sys
 import tempfile
 import warnings
@@ -43,6 +44,8 @@ MOMENTS = ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH")
 #: Level-II field names, for the report (the project's own reader takes them by number).
 LEVEL2_NAMES = {"DBZH": "REF", "ZDR": "ZDR", "RHOHV": "RHO", "PHIDP": "PHI"}
 LEVEL2_NAMES |= {"VRADH": "VEL", "WRADH": "SW"}
+#: 4/3 of the earth's radius (km): the beam's height in the pictures of RHIs.
+FOUR_THIRDS_EARTH_KM = 4.0 / 3.0 * 6371.0
 
 
 @dataclass
@@ -57,6 +60,16 @@ class Outcome:
     moments: dict[str, str] = field(default_factory=dict)
     scored: dict[str, int] = field(default_factory=dict)
     message: str = ""
+    args: list[str] = field(default_factory=list)
+
+    def setting_of(self, name: str) -> str | None:
+        """The value the run gave ``--set NAME=...`` (or ``--sector`` for ``sector``)."""
+        for flag, value in zip(self.args, self.args[1:], strict=False):
+            if name == "sector" and flag == "--sector":
+                return value
+            if flag == "--set" and value.startswith(f"{name}="):
+                return value.split("=", 1)[1]
+        return None
 
     def row(self) -> str:
         if self.status == "runs":
@@ -65,9 +78,9 @@ class Outcome:
                 for m in MOMENTS
                 if m in self.moments
             )
-            result = f"runs: {found}"
+            result = f"runs: {found}" if found else "runs: no truth in the sector"
         else:
-            result = f"{self.status}: {self.message}"
+            result = f"{self.status}: {_bare(self.message)}"
         name = f"`{self.path.name}`"
         return f"| {name} | {self.source} | {self.format} | {self.setting} | {result} |"
 
@@ -232,6 +245,7 @@ def sweep_file(path: Path, source: str, work: Path) -> Outcome:
     outcome = Outcome(path, source)
     try:
         args, outcome.format, outcome.setting, outcome.moments = plan(path)
+        outcome.args = args
     except Exception as exc:  # the plan is this script's, not the program's: say so
         outcome.status, outcome.message = "FAILED", f"planning: {type(exc).__name__}: {exc}"
         return outcome
@@ -257,21 +271,32 @@ BLOCK_FAILED = "failed on beams"
 
 
 def scored_gates(store: Path) -> dict[str, int]:
-    """moment -> gates scored against the truth, for each moment with a truth in the store
-    (what ``pasim score`` counts: the finite ``error_<moment>`` values)."""
+    """moment -> gates scored against the truth, for each moment the truth holds (what
+    ``pasim score`` counts: the finite ``error_<moment>`` values; 0 where the sector has no
+    echo the scorer takes)."""
     import xarray as xr
 
     sweep = xr.open_zarr(store, group="sweep_0")
     return {
         m: int(np.isfinite(sweep[f"error_{m}"].values).sum())
         for m in MOMENTS
-        if f"truth_{m}" in sweep and np.isfinite(sweep[f"truth_{m}"].values).any()
+        if f"truth_{m}" in sweep and f"error_{m}" in sweep
     }
+
+
+def _bare(message: str) -> str:
+    """A refusal as the table shows it: the reader's words, without the command's frame
+    (``error: GRAPH: block 'truth' (truth.nexrad) failed while loading: ValueError:`` and
+    ``(rerun with --debug for the traceback)``)."""
+    text = re.sub(r"^error: \S+: block '\w+' \([\w.]+\) failed while loading: \w+: ", "", message)
+    return text.removesuffix("(rerun with --debug for the traceback)").strip()
 
 
 def _short(line: str, path: Path) -> str:
     """A message with the file's folder left out (the table names the file)."""
-    return line.replace(str(path.parent) + "/", "").replace("|", "/").strip()
+    for folder in (path.parent, ROOT):
+        line = line.replace(f"{folder}/", "")
+    return line.replace("|", "/").strip()
 
 
 def sweep(files: list[tuple[Path, str]]) -> list[Outcome]:
@@ -285,11 +310,94 @@ def table(outcomes: list[Outcome]) -> str:
     return "\n".join([head, rule, *(o.row() for o in outcomes)]) + "\n"
 
 
+def truth_view(outcome: Outcome) -> tuple[str, np.ndarray, np.ndarray, np.ndarray] | None:
+    """What a file that ran gave as truth, to draw: (kind, x km, y km, DBZH) of its PPI
+    (east, north) or its RHI at the run's azimuth (ground range, height), read as the truth
+    block reads it; None for a file that did not run."""
+    from pasim_blocks.truth.nexrad_io import read_truth_sweep
+    from pasim_blocks.truth.radar_files import is_level2, open_radar_file, read_radar_sweep
+    from pasim_blocks.truth.rhi_files import rhi_sweeps
+
+    if outcome.status != "runs":
+        return None
+    if outcome.setting.startswith("RHI"):
+        tree, kind = open_radar_file(outcome.path)
+        sweeps = rhi_sweeps(tree, kind, outcome.path, lambda grid: grid)
+        azimuth = float(outcome.setting_of("scan.azimuth_deg") or 0.0)
+        row = int(np.argmin(np.abs(sweeps[0].azimuth_deg - azimuth)))
+        angles = np.array([sw.elevation_deg for sw in sweeps])
+        dbzh = np.array([sw.fields["DBZH"][row] for sw in sweeps])
+        r, e = np.meshgrid(sweeps[0].range_m / 1e3, np.radians(angles))
+        height = r * np.sin(e) + r**2 / (2 * FOUR_THIRDS_EARTH_KM)
+        return "rhi", r * np.cos(e), height, dbzh
+    elevation = float(outcome.setting_of("truth.elevation_deg") or 0.5)
+    reader = read_truth_sweep if is_level2(outcome.path) else read_radar_sweep
+    sweep = reader(outcome.path, elevation)
+    a, r = np.meshgrid(np.radians(sweep.azimuth_deg), sweep.range_m / 1e3, indexing="ij")
+    return "ppi", r * np.sin(a), r * np.cos(a), sweep.fields["DBZH"]
+
+
+def figure(outcomes: list[Outcome], out: Path) -> None:
+    """The reflectivity each file that ran gave as truth, a panel a file, with the sector
+    (PPI) or the elevations (RHI) the simulated radar looked at."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    views = [(o, v) for o in outcomes if (v := truth_view(o)) is not None]
+    cols = 4
+    rows = -(-len(views) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.9 * rows), squeeze=False)
+    mesh = None
+    for ax, (outcome, (kind, x, y, dbzh)) in zip(axes.ravel(), views, strict=False):
+        shown = np.where(dbzh >= 0.0, dbzh, np.nan)  # echo of 0 dBZ or more
+        mesh = ax.pcolormesh(
+            x, y, shown, shading="nearest", cmap="turbo", vmin=0, vmax=60, rasterized=True
+        )
+        if kind == "ppi":
+            ax.set_aspect("equal")
+            sector = outcome.setting_of("sector") or "0:0"
+            reach = float(np.nanmax(np.hypot(x, y)))
+            for edge in map(float, sector.split(":")):
+                ax.plot(
+                    [0, reach * np.sin(np.radians(edge))],
+                    [0, reach * np.cos(np.radians(edge))],
+                    color="k",
+                    lw=0.8,
+                )
+            ax.set_xlabel("km east")
+            ax.set_ylabel("km north")
+        else:
+            for edge in (0.5, 3.0):
+                reach = float(np.nanmax(x))
+                ax.plot([0, reach], [0, reach * np.tan(np.radians(edge))], color="k", lw=0.8)
+            ax.set_xlabel("km along the ground")
+            ax.set_ylabel("km above the radar")
+        label = outcome.path.name if len(outcome.path.name) < 34 else outcome.path.name[:31] + "..."
+        ax.set_title(
+            f"{label}\n{outcome.format}: DBZH from {outcome.moments.get('DBZH', '?')}", fontsize=9
+        )
+        ax.tick_params(labelsize=7)
+    for ax in axes.ravel()[len(views) :]:
+        ax.axis("off")
+    if mesh is not None:
+        fig.colorbar(mesh, ax=axes.ravel().tolist(), shrink=0.6, label="truth DBZH (dBZ)")
+    fig.suptitle(
+        "Truth from any file: the reflectivity each file gave (0 dBZ or more; black lines: the "
+        "sector, or the 0.5-3 deg of an RHI, the simulated radar ran over)",
+        fontsize=11,
+    )
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("files", nargs="*", type=Path, help="files to sweep (default: all)")
     parser.add_argument("--fixtures", action="store_true", help="tests/fixtures/truth only")
     parser.add_argument("--markdown", type=Path, help="write the table here too")
+    parser.add_argument("--figure", type=Path, help="draw the truth of each file that runs")
     args = parser.parse_args(argv)
     files = [(p, "given") for p in args.files] or all_files(args.fixtures)
     outcomes = sweep(files)
@@ -297,6 +405,8 @@ def main(argv: list[str] | None = None) -> int:
     print(text, end="")
     if args.markdown:
         args.markdown.write_text(text)
+    if args.figure:
+        figure(outcomes, args.figure)
     failed = [o for o in outcomes if o.status == "FAILED"]
     runs = sum(o.status == "runs" for o in outcomes)
     print(

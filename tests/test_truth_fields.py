@@ -9,9 +9,10 @@ What each test compares against:
   equals the same file written under the standard names (an independent path: the names
   are the only difference);
 * the sweep (``benchmarks/sweep_truth_files.py``): every fixture file runs through the
-  generic radar or the RHI graph, with its moments and their fields reported, and a file
-  that cannot be read is refused with one line; over ``../shared/data`` and Py-ART's sample
-  files (slow) no file ends in a traceback or a block failure.
+  generic radar or the RHI graph, with its moments and their fields reported (the UF RHIs,
+  the slowest to read, with -m slow), and a file that cannot be read is refused with one
+  line; over ``../shared/data`` and Py-ART's sample files (slow) no file ends in a traceback
+  or a block failure.
 """
 
 from __future__ import annotations
@@ -284,20 +285,6 @@ def test_a_note_on_a_missing_moment_lists_the_fields_not_known_by_name():
     assert not [n for n in notes if "no VRADH" in n or "no WRADH" in n]  # both by alias
 
 
-def test_an_rhi_file_takes_fields_too():
-    """The UF RHIs as a volume: the field named for DBZH is the one read (ZDR's values), and
-    ZDR, taken, is not read again for ZDR."""
-    from pasim_blocks.truth.radar_files import open_radar_file
-    from pasim_blocks.truth.rhi_files import rhi_sweeps
-
-    path = FIXTURES / "truth" / "MC3E_NPOL_2011_0524_2356_hid_300gates.uf.gz"
-    tree, kind = open_radar_file(path)
-    plain = rhi_sweeps(tree, kind, path, lambda grid: [5.0])[0]
-    named = rhi_sweeps(tree, kind, path, lambda grid: [5.0], {"DBZH": "ZDR"})[0]
-    np.testing.assert_array_equal(named.fields["DBZH"], plain.fields["ZDR"])
-    assert "ZDR" not in named.fields and "RHOHV" in named.fields
-
-
 def test_the_coverage_refusal_names_the_support_that_fits():
     """Three RHIs 1 deg apart cover 170.5-173.5 deg: a beam at 172 deg with a 10 deg pattern
     support is refused, naming 1.5 deg; with that support it passes."""
@@ -326,10 +313,18 @@ FIXTURE_FILES = sorted(
 )
 
 
-@pytest.mark.parametrize("name", FIXTURE_FILES)
+#: The UF RHIs take longest to read (xradar's UF reader: seconds); the CfRadial 1 RHI made
+#: from them takes the same path through the RHI graph by default.
+SLOW_FIXTURES = {"MC3E_NPOL_2011_0524_2356_hid_300gates.uf.gz"}
+
+
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param(n, marks=pytest.mark.slow) if n in SLOW_FIXTURES else n for n in FIXTURE_FILES],
+)
 def test_each_fixture_file_runs_through_a_graph_with_its_fields_reported(name, tmp_path):
     """The sweep over tests/fixtures/truth, a file a test: it runs (PPIs through the generic
-    radar, the UF RHIs through the RHI graph), its reflectivity scored on some gates."""
+    radar, the RHIs through the RHI graph), its reflectivity scored on some gates."""
     sweep = sweep_module()
     outcome = sweep.sweep_file(FIXTURES / "truth" / name, "fixture", tmp_path)
     assert outcome.status == "runs", outcome
@@ -361,3 +356,70 @@ def test_every_shared_and_pyart_sample_file_runs_or_is_refused_in_one_line():
     assert not failed, "\n".join(o.row() for o in failed)
     shared = [o for o in outcomes if o.source == "../shared/data"]
     assert all(o.status == "runs" for o in shared), "\n".join(o.row() for o in shared)
+
+
+def pyart_sample(name: str):
+    """A sample file Py-ART ships (found without importing Py-ART)."""
+    where = importlib.util.find_spec("pyart")
+    if where is None or not where.submodule_search_locations:
+        pytest.skip("Py-ART is not installed")
+    path = next(iter(where.submodule_search_locations)) + f"/testing/data/{name}"
+    return path
+
+
+def test_a_sweep_of_one_ray_is_refused_as_not_a_ppi():
+    """Py-ART's UF sample holds one ray (its azimuth spacing is undefined: the weather channel
+    failed on it with numpy's words)."""
+    from pasim_blocks.truth.radar_files import read_radar_sweep
+
+    with pytest.raises(ValueError, match=r"is not a PPI: its 1 ray\(s\) lie within 0 deg"):
+        read_radar_sweep(pyart_sample("example_uf_ppi.uf"), 0.5)
+
+
+@pytest.mark.slow  # 31 sweeps read: 6 s on a quiet machine
+def test_a_sector_scan_is_read_with_its_own_spacing_and_refused_outside_its_sector():
+    """Py-ART's cloud-radar raster: PPIs over 0.5-5.5 deg at about 0.03 deg, the lowest with
+    the antenna standing at its start for 200 rays. Its spacing is the moving rays' (the
+    median of the distinct azimuths' steps, computed here), and a sector away from it is
+    refused naming where its radials are (the scan block failed on an empty sequence)."""
+    from pasim_blocks.truth.radar_files import open_radar_file, read_radar_sweep
+
+    path = pyart_sample("example_cfradial_cr_raster.nc")
+    tree, _ = open_radar_file(path)
+    azimuth = tree["sweep_0"].to_dataset()["azimuth"].values.astype(np.float64)
+    distinct = np.unique(np.round(azimuth, 3))
+    sweep = read_radar_sweep(path, -0.47)
+    assert sweep.radial_width_deg == pytest.approx(np.median(np.diff(distinct)))
+    assert 0.02 < sweep.radial_width_deg < 0.05
+    with pytest.raises(ValueError) as err:
+        read_radar_sweep(path, 0.5, sector_deg=(240.0, 330.0), margin_deg=10.0)
+    assert "no radial within 10 deg of the sector 240:330 deg" in str(err.value)
+    assert "lie from 0.5 to 5.3 deg" in str(err.value)
+
+
+def test_the_issue_case_a_cfradial1_rhi_with_dbzhc_reads_as_its_source():
+    """Issue #39's file: a CfRadial 1 RHI (character-array times) whose reflectivity is
+    DBZHC, made by Py-ART from the UF sample (tests/fixtures/truth/make_dbzhc_rhi.py). Read
+    by alias, its DBZH equals the UF sample's reflectivity on the same rays and gates (the
+    same values through another format and another writer), and its start time is read."""
+    from pasim_blocks.truth.radar_files import open_radar_file
+    from pasim_blocks.truth.rhi_files import rhi_sweeps
+
+    made = FIXTURES / "truth" / "MC3E_NPOL_rhi_DBZHC_cfradial1.nc.gz"
+    source = FIXTURES / "truth" / "MC3E_NPOL_2011_0524_2356_hid_300gates.uf.gz"
+    tree, kind = open_radar_file(made)
+    assert kind == "CfRadial 1"
+    assert "DBZHC" in tree["sweep_0"].to_dataset().data_vars
+    got = rhi_sweeps(tree, kind, made, lambda grid: [2.0, 5.0])
+    expected = rhi_sweeps(*open_radar_file(source), source, lambda grid: [2.0, 5.0])
+    for a, b in zip(got, expected, strict=True):
+        assert a.elevation_deg == pytest.approx(b.elevation_deg)
+        np.testing.assert_allclose(a.fields["DBZH"], b.fields["DBZH"][:, :80], atol=0.01)
+        assert np.isfinite(a.fields["DBZH"]).sum() > 50
+    assert got[0].site["time_coverage_start"] == "2011-05-24T23:56:01Z"
+    # RHIs take fields too: the field named for DBZH is the one read, and ZDR, taken, is
+    # not read again for ZDR
+    tree, kind = open_radar_file(source)
+    named = rhi_sweeps(tree, kind, source, lambda grid: [2.0], {"DBZH": "ZDR"})[0]
+    np.testing.assert_array_equal(named.fields["DBZH"], expected[0].fields["ZDR"])
+    assert "ZDR" not in named.fields and "RHOHV" in named.fields

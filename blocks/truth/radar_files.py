@@ -38,6 +38,9 @@ from .iris_rays import keep_iris_rays_in_order
 from .nexrad_io import TruthSweep
 
 _MAX_ELEVATION_MISMATCH_DEG = 1.0
+#: Radials closer than this in azimuth (the median step) are not a PPI sweep's: a raster or
+#: a fixed-pointing scan, whose azimuth hardly moves.
+_MIN_SPACING_DEG = 0.01
 #: A gzip-wrapped file is unpacked to a temporary file (xradar's backends read paths);
 #: no radar sweep file is larger than this.
 _MAX_UNPACKED_BYTES = 2 << 30
@@ -149,12 +152,15 @@ def open_radar_file(path: str | Path) -> tuple[Any, str]:
             except sizes.SizeError:
                 raise
             except Exception as exc:
-                first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+                first = str(exc).splitlines()[0] if str(exc) else ""
+                if not any(c.isalpha() for c in first):  # KeyError(4): say it is a KeyError
+                    first = f"{type(exc).__name__} {first}".strip()
                 tried.append(f"{label}: {first[:100]}")
     raise ValueError(
         f"{path}: no radar-file reader opens it (tried NEXRAD Level-II by its header, then "
         + "; ".join(tried or ["no candidate format"])
-        + ")"
+        + "); a format Py-ART reads (MDV, CHL, NEXRAD Level 3 or CDM, ...) can be written as "
+        "CfRadial first: pyart.io.write_cfradial(out, pyart.io.read(file))"
     )
 
 
@@ -349,8 +355,24 @@ def _truth_sweep(
     raw_azimuth, elevation, range_m = sweep_axes(ds, f"{path} ({kind}), {best[0]}")
     azimuth = wrap360(raw_azimuth)
     width = nominal_spacing(azimuth)
+    if not width >= _MIN_SPACING_DEG:
+        # rays repeated while the antenna stood (a raster's start), or one ray (NaN)
+        width = nominal_spacing(np.unique(np.round(azimuth, 3)))
+    if not width >= _MIN_SPACING_DEG:
+        span = float(np.ptp(azimuth)) if azimuth.size else 0.0
+        raise ValueError(
+            f"{where} is not a PPI: its {azimuth.size} ray(s) lie within {span:.3g} deg of "
+            f"azimuth (sweep_mode {best[2] or 'not given'!r}); the truth needs radials that "
+            "step in azimuth (an RHI file is read as a volume: sweeps: volume)"
+        )
     keep = drop_duplicate_radials(azimuth, width)
     order = keep[sector_order(azimuth[keep], sector, margin)]
+    if order.size == 0 and sector is not None:
+        raise ValueError(
+            f"{where}: no radial within {margin:g} deg of the sector {sector[0]:g}:"
+            f"{sector[1]:g} deg (its {keep.size} radials lie from {azimuth[keep].min():.1f} to "
+            f"{azimuth[keep].max():.1f} deg); set the scan's sector inside them (--sector)"
+        )
     values = {
         moment: np.asarray(ds[var].values, np.float32)[order] for moment, var in mapping.items()
     }
