@@ -348,7 +348,9 @@ def figure(outcomes: list[Outcome], out: Path) -> None:
     views = [(o, v) for o in outcomes if (v := truth_view(o)) is not None]
     cols = 4
     rows = -(-len(views) // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.9 * rows), squeeze=False)
+    fig, axes = plt.subplots(
+        rows, cols, figsize=(4.0 * cols, 3.8 * rows), squeeze=False, layout="constrained"
+    )
     mesh = None
     for ax, (outcome, (kind, x, y, dbzh)) in zip(axes.ravel(), views, strict=False):
         shown = np.where(dbzh >= 0.0, dbzh, np.nan)  # echo of 0 dBZ or more
@@ -356,7 +358,7 @@ def figure(outcomes: list[Outcome], out: Path) -> None:
             x, y, shown, shading="nearest", cmap="turbo", vmin=0, vmax=60, rasterized=True
         )
         if kind == "ppi":
-            ax.set_aspect("equal")
+            ax.set_aspect("equal", adjustable="datalim")
             sector = outcome.setting_of("sector") or "0:0"
             reach = float(np.nanmax(np.hypot(x, y)))
             for edge in map(float, sector.split(":")):
@@ -374,7 +376,8 @@ def figure(outcomes: list[Outcome], out: Path) -> None:
                 ax.plot([0, reach], [0, reach * np.tan(np.radians(edge))], color="k", lw=0.8)
             ax.set_xlabel("km along the ground")
             ax.set_ylabel("km above the radar")
-        label = outcome.path.name if len(outcome.path.name) < 34 else outcome.path.name[:31] + "..."
+        name = outcome.path.name
+        label = name if len(name) < 32 else name[:29] + "..."
         ax.set_title(
             f"{label}\n{outcome.format}: DBZH from {outcome.moments.get('DBZH', '?')}", fontsize=9
         )
@@ -382,7 +385,7 @@ def figure(outcomes: list[Outcome], out: Path) -> None:
     for ax in axes.ravel()[len(views) :]:
         ax.axis("off")
     if mesh is not None:
-        fig.colorbar(mesh, ax=axes.ravel().tolist(), shrink=0.6, label="truth DBZH (dBZ)")
+        fig.colorbar(mesh, ax=axes.ravel().tolist(), shrink=0.5, label="truth DBZH (dBZ)")
     fig.suptitle(
         "Truth from any file: the reflectivity each file gave (0 dBZ or more; black lines: the "
         "sector, or the 0.5-3 deg of an RHI, the simulated radar ran over)",

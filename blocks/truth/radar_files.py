@@ -153,6 +153,7 @@ def open_radar_file(path: str | Path) -> tuple[Any, str]:
                 raise
             except Exception as exc:
                 first = str(exc).splitlines()[0] if str(exc) else ""
+                first = first.replace(str(plain), plain.name)  # the file is named already
                 if not any(c.isalpha() for c in first):  # KeyError(4): say it is a KeyError
                     first = f"{type(exc).__name__} {first}".strip()
                 tried.append(f"{label}: {first[:100]}")
