@@ -423,3 +423,31 @@ def test_the_issue_case_a_cfradial1_rhi_with_dbzhc_reads_as_its_source():
     named = rhi_sweeps(tree, kind, source, lambda grid: [2.0], {"DBZH": "ZDR"})[0]
     np.testing.assert_array_equal(named.fields["DBZH"], expected[0].fields["ZDR"])
     assert "ZDR" not in named.fields and "RHOHV" in named.fields
+
+
+@pytest.mark.slow  # two study checks: 5 s on a quiet machine
+def test_a_study_case_names_its_truth_fields(renamed, tmp_path, capsys):
+    """A study case takes ``fields`` for its truth file, checked like the block's parameter
+    and given to every system's truth block: without it the renamed file is refused by
+    the study's check (with the hint), with it the study checks clean."""
+    import shutil
+
+    from pasim_blocks.study.model import parse_study
+
+    for graph in ("small_pencil.yaml", "small_wide.yaml"):
+        shutil.copy(FIXTURES / "study" / graph, tmp_path / graph)
+    _, odd = renamed
+    case = f'{{name: odd, truth: {odd}, sector: "102:104", elevation: 1.0'
+    text = (
+        "format: pasim-study/1\nsystems:\n  - {name: narrow, graph: small_pencil.yaml}\n"
+        f"cases:\n  - {case}FIELDS}}\nseeds: [0]\n"
+    )
+    study = tmp_path / "study.yaml"
+    study.write_text(text.replace("FIELDS", ""))
+    code, _, err = pasim_out(capsys, "study", str(study), "--check")
+    assert code == 2 and "fields: {DBZH: DBZ_QC}" in err and "Traceback" not in err, err
+    study.write_text(text.replace("FIELDS", ", fields: {DBZH: DBZ_QC, VRADH: V_QC}"))
+    code, out, err = pasim_out(capsys, "study", str(study), "--check")
+    assert code == 0, out + err
+    bad = parse_study(text.replace("FIELDS", ", fields: {DBZ: x}"), str(study))
+    assert any("expected keys among DBZH" in str(p) for p in bad.problems), bad.problems
