@@ -411,7 +411,8 @@ def test_the_issue_case_a_cfradial1_rhi_with_dbzhc_reads_as_its_source():
     assert kind == "CfRadial 1"
     assert "DBZHC" in tree["sweep_0"].to_dataset().data_vars
     got = rhi_sweeps(tree, kind, made, lambda grid: [2.0, 5.0])
-    expected = rhi_sweeps(*open_radar_file(source), source, lambda grid: [2.0, 5.0])
+    source_tree, source_kind = open_radar_file(source)
+    expected = rhi_sweeps(source_tree, source_kind, source, lambda grid: [2.0, 5.0])
     for a, b in zip(got, expected, strict=True):
         assert a.elevation_deg == pytest.approx(b.elevation_deg)
         np.testing.assert_allclose(a.fields["DBZH"], b.fields["DBZH"][:, :80], atol=0.01)
@@ -419,8 +420,7 @@ def test_the_issue_case_a_cfradial1_rhi_with_dbzhc_reads_as_its_source():
     assert got[0].site["time_coverage_start"] == "2011-05-24T23:56:01Z"
     # RHIs take fields too: the field named for DBZH is the one read, and ZDR, taken, is
     # not read again for ZDR
-    tree, kind = open_radar_file(source)
-    named = rhi_sweeps(tree, kind, source, lambda grid: [2.0], {"DBZH": "ZDR"})[0]
+    named = rhi_sweeps(source_tree, source_kind, source, lambda grid: [2.0], {"DBZH": "ZDR"})[0]
     np.testing.assert_array_equal(named.fields["DBZH"], expected[0].fields["ZDR"])
     assert "ZDR" not in named.fields and "RHOHV" in named.fields
 
