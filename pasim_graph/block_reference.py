@@ -31,7 +31,8 @@ def param_text(q: Any) -> str:
     units = f" {q.units}" if q.units else ""
     limits = []
     if q.choices is not None:
-        limits.append("one of " + ", ".join(repr(c) for c in q.choices))
+        word = "keys among " if q.type == "mapping" else "one of "
+        limits.append(word + ", ".join(repr(c) for c in q.choices))
     if q.min is not None and q.max is not None:
         limits.append(f"{q.min:g} to {q.max:g}{units}")
     elif q.min is not None:

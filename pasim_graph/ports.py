@@ -372,6 +372,7 @@ _PY_TYPES: dict[str, tuple[type, ...]] = {
     "bool": (bool,),
     "str": (str,),
     "path": (str,),
+    "mapping": (dict,),
 }
 
 
@@ -390,14 +391,15 @@ class Param:
     default : object
         Value used when the graph file gives none; ``None`` means the parameter is required,
         unless ``optional`` is set (then ``None`` means "not given": the block decides).
-    type : {"float", "int", "bool", "str", "path"}
-        Value type; ``int`` values are accepted for ``float`` parameters.
+    type : {"float", "int", "bool", "str", "path", "mapping"}
+        Value type; ``int`` values are accepted for ``float`` parameters. A ``mapping`` is
+        a text-to-text mapping (``{DBZH: DBZHC}`` in a graph file).
     units : str
         Unit of the value; the name of the parameter carries it too (``gain_db``).
     min, max : float, optional
         Inclusive bounds.
     choices : tuple, optional
-        The allowed values, for enumerations.
+        The allowed values, for enumerations; for a ``mapping``, its allowed keys.
     doc : str
         One line shown by ``pasim blocks`` and the editor.
     optional : bool
@@ -428,6 +430,8 @@ class Param:
         if not isinstance(value, kinds):
             return f"expected {self.type}, found {type(value).__name__} {value!r}"
         value = cast(Any, value)  # isinstance on a runtime tuple narrows to object
+        if self.type == "mapping":
+            return _mapping_problem(value, self.choices)
         if self.type == "float" and not math.isfinite(float(value)):
             return f"expected a finite number, found {value!r}"
         if self.type == "path" and value:
@@ -462,6 +466,21 @@ class Param:
         if self.choices is not None:
             out["choices"] = list(self.choices)
         return out
+
+
+def _mapping_problem(value: dict[Any, Any], keys: tuple[Any, ...] | None) -> str | None:
+    """What is wrong with a ``mapping`` parameter's value: text to non-empty text, each key
+    among ``keys`` (when given), no value given twice."""
+    for key, item in value.items():
+        if not isinstance(key, str) or not isinstance(item, str) or not item.strip():
+            return f"expected a mapping of names to names, found {key!r}: {item!r}"
+        if keys is not None and key not in keys:
+            allowed = ", ".join(str(k) for k in keys)
+            return f"expected keys among {allowed}, found {key!r}"
+    twice = sorted({v for v in value.values() if list(value.values()).count(v) > 1})
+    if twice:
+        return f"expected each name once, found {twice[0]!r} for several keys"
+    return None
 
 
 def _unit(units: str) -> str:

@@ -10,6 +10,7 @@ systems:
 cases:
   - {name: convective, truth: "", sector: "240:330", elevation: 0.5}
   - {name: storm-3d, truth: "", sector: "240:330", elevation: 0.5, sweeps: volume}
+  - {name: mobile, truth: mobile.nc, sector: "0:90", elevation: 1.0, fields: {DBZH: ZH_QC}}
 seeds: [0]
 sweeps:                          # optional
   - {systems: [cppar10], values: {antenna.phase_bits: [3, 4, 5]}}
@@ -57,6 +58,7 @@ class Case:
     line: int = 0
     sweeps: str = "single"  # "volume": every sweep of the truth, weighted over elevation
     interpolation: str = "nearest"  # between a volume's sweeps
+    fields: dict[str, str] = field(default_factory=dict)  # moment -> the truth file's field
 
 
 CASE_SWEEPS = ("single", "volume")
@@ -309,7 +311,8 @@ def _read_cases(study: Study, node: yaml.Node, value: Any, base: Path) -> None:
     seen: dict[str, int] = {}
     for item in _entries(study, node, "cases"):
         m = _mapping(study, item, "a case")
-        _keys(study, m, ("name", "truth", "sector", "elevation", "sweeps", "interpolation"), "case")
+        keys = ("name", "truth", "sector", "elevation", "sweeps", "interpolation", "fields")
+        _keys(study, m, keys, "case")
         entry = {k: value(v) for k, (_, v) in m.items()}
         line = _line(item)
         name = _name(study, entry, line, "case", seen)
@@ -336,6 +339,11 @@ def _read_cases(study: Study, node: yaml.Node, value: Any, base: Path) -> None:
         interpolation = _choice(study, line, name, entry, "interpolation", CASE_INTERPOLATIONS)
         if "interpolation" in entry and sweeps != "volume":
             study.problem(line, f"case {name!r}: 'interpolation' needs sweeps: volume")
+        fields = entry.get("fields") or {}
+        wrong = _fields_problem(fields)
+        if wrong:
+            study.problem(line, f"case {name!r}: fields {fields!r}: {wrong}")
+            fields = {}
         study.cases.append(
             Case(
                 name,
@@ -345,8 +353,19 @@ def _read_cases(study: Study, node: yaml.Node, value: Any, base: Path) -> None:
                 line,
                 sweeps,
                 interpolation,
+                dict(fields),
             )
         )
+
+
+def _fields_problem(fields: Any) -> str | None:
+    """What is wrong with a case's ``fields`` (moment -> the truth file's field), as the
+    truth block's parameter of that name checks it."""
+    from pasim_graph.ports import Param
+
+    from ..signals import MOMENT_FIELDS
+
+    return Param(None, type="mapping", choices=MOMENT_FIELDS, optional=True).check(fields)
 
 
 def _choice(

@@ -115,6 +115,14 @@ def case_overrides(graph: Graph, case: Case) -> tuple[dict[str, Any], list[str]]
         if "azimuth_start_deg" in params and "azimuth_stop_deg" in params:
             out[f"{t}.azimuth_start_deg"] = case.sector[0]
             out[f"{t}.azimuth_stop_deg"] = case.sector[1]
+        if case.fields:
+            if "fields" in params:
+                out[f"{t}.fields"] = dict(case.fields)
+            else:
+                problems.append(
+                    f"truth block '{t}' ({graph.classes[t].type_name}) has no 'fields' "
+                    "parameter for the case's fields"
+                )
         if case.sweeps != "single":
             if "sweeps" in params and case.sweeps in (params["sweeps"].choices or ()):
                 out[f"{t}.sweeps"] = case.sweeps
@@ -141,6 +149,8 @@ def _case_key(case: Case, key: str) -> str:
         return f"truth {case.truth or '(the bundled scene)'}"
     if param == "elevation_interpolation":
         return f"interpolation {case.interpolation}"
+    if param == "fields":
+        return f"fields {case.fields}"
     return f"{param} {case.sweeps}"
 
 
@@ -386,8 +396,15 @@ def _truth_problems(study: Study) -> list[Problem]:
             continue  # reported by the model
         try:
             # the truth block's own choice of reader: Level-II, or xradar for other formats
-            reader = read_truth_sweep if is_level2(path) else read_radar_sweep
-            sweep = reader(path, case.elevation)
+            if is_level2(path):
+                if case.fields:
+                    raise ValueError(
+                        f"{path}: a NEXRAD Level-II volume names its moments itself; the "
+                        "case's 'fields' applies to files in other formats"
+                    )
+                sweep = read_truth_sweep(path, case.elevation)
+            else:
+                sweep = read_radar_sweep(path, case.elevation, fields=case.fields or None)
         except Exception as exc:  # a broken file: named, with its reason
             out.append(Problem(study.file, case.line, "", f"case '{case.name}'", f"truth: {exc}"))
             continue

@@ -13,11 +13,11 @@ import xarray as xr
 
 from pasim_graph import Block, Chunk, Output, Param, RunNote
 
-from ..signals import TRUTH
+from ..signals import MOMENT_FIELDS, TRUTH
 from .gridding import clean_fields, sector_order
 from .nexrad import truth_dataset
 from .nexrad_io import TruthSweep
-from .radar_files import damaged, field_map
+from .radar_files import damaged, field_map, mapping_hint, unknown_names
 from .sizes import check_grid, check_zarr
 from .volume import (
     EARTH_RADIUS_M,
@@ -38,7 +38,7 @@ class Grid:
     """A gridded field read and checked: its moments on (vertical, y or lat, x or lon) in
     metres or degrees, and which kind of axes it has."""
 
-    def __init__(self, ds: xr.Dataset, source: str):
+    def __init__(self, ds: xr.Dataset, source: str, fields: dict[str, str] | None = None):
         self.source = source
         problems: list[str] = []
         lower = {str(n).lower(): str(n) for n in ds.variables}
@@ -60,11 +60,13 @@ class Grid:
             )
         names = [str(n) for n in ds.data_vars if ds[n].ndim == 3]
         standard = {n: str(ds[n].attrs.get("standard_name", "")) for n in names}
-        self.mapping = field_map(names, standard)
+        self.mapping = field_map(names, standard, fields, f"gridded truth {source}")
         if "DBZH" not in self.mapping:
+            unknown = unknown_names(names, self.mapping)
             problems.append(
                 "no reflectivity field (DBZH, reflectivity, ... or a CF standard name); its "
                 f"three-dimensional variables: {', '.join(names) or 'none'}"
+                + (f" ({mapping_hint('DBZH', unknown)})" if unknown else "")
             )
         if problems:
             raise ValueError(f"gridded truth {source}: " + "; ".join(problems))
@@ -121,7 +123,7 @@ def _metres(da: xr.DataArray) -> np.ndarray:
     return values * 1000.0 if str(da.attrs.get("units", "m")).strip() == "km" else values
 
 
-def open_grid(path: str | Path) -> Grid:
+def open_grid(path: str | Path, fields: dict[str, str] | None = None) -> Grid:
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"gridded truth not found (no such file): {path}")
@@ -132,7 +134,7 @@ def open_grid(path: str | Path) -> Grid:
     except Exception as exc:
         raise ValueError(f"gridded truth {path}: not a netCDF file or Zarr store ({exc})") from None
     with damaged(f"gridded truth {path}", path.name):
-        return Grid(ds, path.name)
+        return Grid(ds, path.name, fields)
 
 
 def destination(
@@ -210,6 +212,14 @@ class GriddedTruth(Block):
         None, units="deg", min=0.0, max=360.0, optional=True, doc="sample up to this azimuth"
     )
     margin_deg = Param(10.0, units="deg", min=0.0, max=180.0, doc="radials beyond the sector")
+    fields = Param(
+        None,
+        type="mapping",
+        choices=MOMENT_FIELDS,
+        optional=True,
+        doc="moment -> the file's variable holding it, for names not known (e.g. {DBZH: "
+        "dbz_model}); the other moments by name; unset: all by name",
+    )
 
     @classmethod
     def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
@@ -231,7 +241,7 @@ class GriddedTruth(Block):
         return out
 
     def load(self) -> Any:
-        grid = open_grid(self.p["path"])
+        grid = open_grid(self.p["path"], self.p["fields"])
         p = self.p
         if grid.kind == "cartesian":
             if p["x_m"] is None:

@@ -12,7 +12,7 @@ import xarray as xr
 from pasim_graph import Block, Chunk, Output, Param, RunNote
 
 from .. import DEFAULT_SCENE
-from ..signals import MOMENT_UNITS, TRUTH
+from ..signals import MOMENT_FIELDS, MOMENT_UNITS, TRUTH
 from .volume import INTERPOLATIONS, covered, select_angles, volume_variables
 
 
@@ -40,7 +40,10 @@ class NexradTruth(Block):
     Furuno) is read through xradar, its fields mapped onto the six moments by name or standard
     name (:mod:`pasim_blocks.truth.radar_files`); an IRIS/Sigmet ray keeps the azimuth its
     own header gives, where xradar 0.12 labels it with the next ray's
-    (:mod:`pasim_blocks.truth.iris_rays`). What follows describes Level-II.
+    (:mod:`pasim_blocks.truth.iris_rays`). ``fields`` names the file's variable for a moment
+    where its name is not one PASIM knows (``fields: {DBZH: DBZHC}``); the file is refused,
+    naming the moment and its fields, when it has no such variable. What follows describes
+    Level-II.
 
     Reads the surveillance and Doppler cuts nearest ``elevation_deg`` (message 31, or a
     legacy message 1 file), merges them by azimuth and range, masks below-threshold and
@@ -102,6 +105,15 @@ class NexradTruth(Block):
             "half-width of the widest antenna pattern support you expect; radials within "
             "this of the sector are read too"
         ),
+    )
+
+    fields = Param(
+        None,
+        type="mapping",
+        choices=MOMENT_FIELDS,
+        optional=True,
+        doc="moment -> the file's variable holding it, for names not known (e.g. {DBZH: "
+        "DBZHC}); the other moments by name; unset: all by name",
     )
 
     sweeps = Param(
@@ -186,31 +198,47 @@ class NexradTruth(Block):
         from .radar_files import is_level2, read_radar_sweep
 
         path = self.p["path"] or DEFAULT_SCENE
+        fields = self.p["fields"]
+        if fields and is_level2(path):
+            raise ValueError(
+                f"{path}: a NEXRAD Level-II volume names its moments itself (REF, ZDR, RHO, "
+                f"PHI, VEL, SW); parameter 'fields' of block '{self.name}' applies to files in "
+                "other formats: leave it unset"
+            )
         if self.p["sweeps"] == "volume":
             sweep, volume = self._volume(path)
-        else:
+        elif is_level2(path):
             # Level-II through the project's own reader (it beats xradar's there); any other
             # radar file through xradar's backend for its format.
-            reader = read_truth_sweep if is_level2(path) else read_radar_sweep
-            sweep = reader(
+            sweep = read_truth_sweep(
                 path,
                 self.p["elevation_deg"],
                 sector_deg=self.sector(),
                 margin_deg=self.p["margin_deg"],
             )
             volume = None
+        else:
+            sweep = read_radar_sweep(
+                path,
+                self.p["elevation_deg"],
+                sector_deg=self.sector(),
+                margin_deg=self.p["margin_deg"],
+                fields=fields,
+            )
+            volume = None
         present = [name for name in POLARIMETRIC_FIELDS if name in sweep.fields]
         if not present:
             warnings.warn(
                 f"truth {sweep.source}: no polarimetric fields (ZDR, RHOHV, PHIDP); "
-                "running single polarisation (H channel only)",
+                "running single polarisation (H channel only)" + _unmapped(sweep, "ZDR"),
                 RunNote,
                 stacklevel=2,
             )
         elif not sweep.polarimetric:
-            missing = ", ".join(n for n in POLARIMETRIC_FIELDS if n not in present)
+            absent = [n for n in POLARIMETRIC_FIELDS if n not in present]
             warnings.warn(
-                f"truth {sweep.source}: polarimetric fields incomplete (no {missing})",
+                f"truth {sweep.source}: polarimetric fields incomplete (no {', '.join(absent)})"
+                + _unmapped(sweep, absent[0]),
                 RunNote,
                 stacklevel=2,
             )
@@ -218,7 +246,8 @@ class NexradTruth(Block):
             doppler = [n for n in ("VRADH", "WRADH") if n not in sweep.fields]
             warnings.warn(
                 f"truth {sweep.source}: no {' or '.join(doppler)}; the weather channel takes "
-                "velocity 0 m/s and width 1 m/s there, and they are not scored",
+                "velocity 0 m/s and width 1 m/s there, and they are not scored"
+                + _unmapped(sweep, doppler[0]),
                 RunNote,
                 stacklevel=2,
             )
@@ -262,12 +291,13 @@ class NexradTruth(Block):
                 return choose(available)
 
             tree, kind = open_radar_file(path)
+            fields = self.p["fields"]
             if only_rhis(tree, f"{path} ({kind})"):
                 # RHIs: their rays regrouped by elevation, over the RHIs' own azimuths.
-                read = rhi_sweeps(tree, kind, Path(path), remember)
+                read = rhi_sweeps(tree, kind, Path(path), remember, fields)
             else:
                 limits = check_sector(sector, sector_margin)
-                read = sweeps_from_tree(tree, kind, Path(path), remember, *limits)
+                read = sweeps_from_tree(tree, kind, Path(path), remember, *limits, fields)
         chosen = choose(angles)
         reference = read[int(np.argmin([abs(a - wanted) for a in chosen]))]
         width = float(self.p["sweep_beamwidth_deg"])
@@ -306,6 +336,17 @@ class NexradTruth(Block):
             ds = ds.assign(variables)
             ds.attrs.update(attrs)
         return {"truth": ds}
+
+
+def _unmapped(sweep: Any, moment: str) -> str:
+    """The tail of a note on a missing moment: the file's fields no moment was taken from,
+    and how to name one (nothing for a file without such fields, e.g. Level-II)."""
+    from .radar_files import mapping_hint
+
+    names = list(sweep.unmapped)
+    if not names:
+        return ""
+    return f" (its fields not known by name: {', '.join(names)}; {mapping_hint(moment, names)})"
 
 
 def _elevation(sweep: Any) -> float:

@@ -96,6 +96,9 @@ class TruthSweep:
         longitude and altitude are 0, as xradar reports them.
     source : str
         File name the sweep was read from.
+    unmapped : tuple of str
+        The file's fields on the sweep's grid that no moment was taken from and that are no
+        moment's alias (empty for Level-II): named in the note on a missing moment.
     """
 
     azimuth_deg: np.ndarray
@@ -107,6 +110,7 @@ class TruthSweep:
     nyquist_velocity_ms: float
     site: dict[str, Any]
     source: str
+    unmapped: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         # A mismatched grid would only surface far downstream as a broadcasting error.

@@ -17,13 +17,14 @@ import contextlib
 import gzip
 import tempfile
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from . import sizes
+from .field_names import ALIASES, field_map, mapping_hint, unknown_names
 from .gridding import (
     check_sector,
     clean_fields,
@@ -34,46 +35,12 @@ from .gridding import (
     wrap360,
 )
 from .iris_rays import keep_iris_rays_in_order
-from .level2 import FIELD_NAMES
 from .nexrad_io import TruthSweep
 
-#: Names a field may have in a file, per moment, in order of preference (matched without
-#: regard to case). ``TH``/``DBTH`` (total power, no clutter filter) only when there is no
-#: ``DBZH``; ``UPHIDP`` (unfiltered) only without ``PHIDP``.
-ALIASES: dict[str, tuple[str, ...]] = {
-    "DBZH": (
-        "DBZH",
-        "reflectivity",
-        "corrected_reflectivity",
-        "DBZ",
-        "REF",
-        "ZH",
-        "CZ",
-        "DZ",
-        "TH",
-        "DBTH",
-        "total_power",
-    ),
-    "ZDR": ("ZDR", "differential_reflectivity", "corrected_differential_reflectivity", "DR"),
-    "RHOHV": ("RHOHV", "cross_correlation_ratio", "copol_correlation_coeff", "RHO", "RH"),
-    "PHIDP": ("PHIDP", "differential_phase", "corrected_differential_phase", "PHI", "UPHIDP", "PH"),
-    "VRADH": ("VRADH", "velocity", "corrected_velocity", "VRAD", "VEL", "VR"),
-    "WRADH": ("WRADH", "spectrum_width", "WRAD", "WIDTH", "SW"),
-}
-#: CF / xradar standard names per moment, tried when no name matches.
-STANDARD_NAMES: dict[str, tuple[str, ...]] = {
-    "DBZH": ("radar_equivalent_reflectivity_factor_h", "equivalent_reflectivity_factor"),
-    "ZDR": ("radar_differential_reflectivity_hv", "log_differential_reflectivity_hv"),
-    "RHOHV": ("radar_correlation_coefficient_hv", "cross_correlation_ratio_hv"),
-    "PHIDP": ("radar_differential_phase_hv", "differential_phase_hv"),
-    "VRADH": (
-        "radial_velocity_of_scatterers_away_from_instrument_h",
-        "radial_velocity_of_scatterers_away_from_instrument",
-    ),
-    "WRADH": ("radar_doppler_spectrum_width_h", "doppler_spectrum_width"),
-}
-
 _MAX_ELEVATION_MISMATCH_DEG = 1.0
+#: Radials closer than this in azimuth (the median step) are not a PPI sweep's: a raster or
+#: a fixed-pointing scan, whose azimuth hardly moves.
+_MIN_SPACING_DEG = 0.01
 #: A gzip-wrapped file is unpacked to a temporary file (xradar's backends read paths);
 #: no radar sweep file is larger than this.
 _MAX_UNPACKED_BYTES = 2 << 30
@@ -185,30 +152,17 @@ def open_radar_file(path: str | Path) -> tuple[Any, str]:
             except sizes.SizeError:
                 raise
             except Exception as exc:
-                first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+                first = str(exc).splitlines()[0] if str(exc) else ""
+                first = first.replace(str(plain), plain.name)  # the file is named already
+                if not any(c.isalpha() for c in first):  # KeyError(4): say it is a KeyError
+                    first = f"{type(exc).__name__} {first}".strip()
                 tried.append(f"{label}: {first[:100]}")
     raise ValueError(
         f"{path}: no radar-file reader opens it (tried NEXRAD Level-II by its header, then "
         + "; ".join(tried or ["no candidate format"])
-        + ")"
+        + "); a format Py-ART reads (MDV, CHL, NEXRAD Level 3 or CDM, ...) can be written as "
+        "CfRadial first: pyart.io.write_cfradial(out, pyart.io.read(file))"
     )
-
-
-def field_map(names: list[str], standard_names: dict[str, str]) -> dict[str, str]:
-    """moment -> the file's variable holding it, by alias (any case), then standard name."""
-    lower = {n.lower(): n for n in names}
-    out: dict[str, str] = {}
-    for moment in FIELD_NAMES:
-        for alias in ALIASES[moment]:
-            if alias.lower() in lower:
-                out[moment] = lower[alias.lower()]
-                break
-        else:
-            for name, standard in standard_names.items():
-                if standard in STANDARD_NAMES[moment] and name not in out.values():
-                    out[moment] = name
-                    break
-    return out
 
 
 def read_radar_sweep(
@@ -216,12 +170,15 @@ def read_radar_sweep(
     elevation_deg: float = 0.5,
     sector_deg: tuple[float, float] | None = None,
     margin_deg: float = 0.0,
+    fields: Mapping[str, str] | None = None,
 ) -> TruthSweep:
     """The sweep of a radar file nearest ``elevation_deg``, as a truth sweep.
 
-    Parameters and result as :func:`pasim_blocks.truth.nexrad_io.read_truth_sweep`.
+    Parameters and result as :func:`pasim_blocks.truth.nexrad_io.read_truth_sweep`;
+    ``fields`` names the file's variable for a moment (the truth block's ``fields``), the
+    others are found by name (:func:`field_map`).
     """
-    return read_radar_sweeps(path, lambda _: [elevation_deg], sector_deg, margin_deg)[0]
+    return read_radar_sweeps(path, lambda _: [elevation_deg], sector_deg, margin_deg, fields)[0]
 
 
 def read_radar_sweeps(
@@ -229,6 +186,7 @@ def read_radar_sweeps(
     choose: Callable[[list[float]], list[float]],
     sector_deg: tuple[float, float] | None = None,
     margin_deg: float = 0.0,
+    fields: Mapping[str, str] | None = None,
 ) -> list[TruthSweep]:
     """Several PPI sweeps of one radar file, opened once: ``choose`` is given the file's PPI
     fixed angles (deg, ascending) and returns the elevations to read (each the nearest sweep,
@@ -236,7 +194,7 @@ def read_radar_sweeps(
     path = Path(path)
     sector, margin = check_sector(sector_deg, margin_deg)
     tree, kind = open_radar_file(path)
-    return sweeps_from_tree(tree, kind, path, choose, sector, margin)
+    return sweeps_from_tree(tree, kind, path, choose, sector, margin, fields)
 
 
 @contextlib.contextmanager
@@ -294,6 +252,7 @@ def sweeps_from_tree(
     choose: Callable[[list[float]], list[float]],
     sector: tuple[float, float] | None,
     margin: float,
+    fields: Mapping[str, str] | None = None,
 ) -> list[TruthSweep]:
     """:func:`read_radar_sweeps` on a file already opened (:func:`open_radar_file`)."""
     described = sweep_modes(tree, f"{path} ({kind})")
@@ -316,7 +275,7 @@ def sweeps_from_tree(
                 f"{elevation_deg} deg; available fixed angles (deg): {angles}"
             )
         with damaged(f"{path} ({kind}), {best[0]}"):
-            out.append(_truth_sweep(tree, kind, path, best, sector, margin))
+            out.append(_truth_sweep(tree, kind, path, best, sector, margin, fields))
     return out
 
 
@@ -385,22 +344,37 @@ def _truth_sweep(
     best: tuple[str, float, str],
     sector: tuple[float, float] | None,
     margin: float,
+    fields: Mapping[str, str] | None = None,
 ) -> TruthSweep:
     ds = tree[best[0]].to_dataset()
     names = [str(n) for n in ds.data_vars if ds[n].dims == ("azimuth", "range")]
     standard = {n: str(ds[n].attrs.get("standard_name", "")) for n in names}
-    mapping = field_map(names, standard)
+    where = f"{path} ({kind}), the {best[1]:.2f} deg sweep"
+    mapping = field_map(names, standard, fields, where)
     if "DBZH" not in mapping:
-        raise ValueError(
-            f"{path} ({kind}): the {best[1]:.2f} deg sweep has no reflectivity field "
-            f"(its fields: {', '.join(names) or 'none'})"
-        )
+        raise no_reflectivity(where, names, mapping)
     raw_azimuth, elevation, range_m = sweep_axes(ds, f"{path} ({kind}), {best[0]}")
     azimuth = wrap360(raw_azimuth)
     width = nominal_spacing(azimuth)
+    if not width >= _MIN_SPACING_DEG:
+        # rays repeated while the antenna stood (a raster's start), or one ray (NaN)
+        width = nominal_spacing(np.unique(np.round(azimuth, 3)))
+    if not width >= _MIN_SPACING_DEG:
+        span = float(np.ptp(azimuth)) if azimuth.size else 0.0
+        raise ValueError(
+            f"{where} is not a PPI: its {azimuth.size} ray(s) lie within {span:.3g} deg of "
+            f"azimuth (sweep_mode {best[2] or 'not given'!r}); the truth needs radials that "
+            "step in azimuth (an RHI file is read as a volume: sweeps: volume)"
+        )
     keep = drop_duplicate_radials(azimuth, width)
     order = keep[sector_order(azimuth[keep], sector, margin)]
-    fields = {
+    if order.size == 0 and sector is not None:
+        raise ValueError(
+            f"{where}: no radial within {margin:g} deg of the sector {sector[0]:g}:"
+            f"{sector[1]:g} deg (its {keep.size} radials lie from {azimuth[keep].min():.1f} to "
+            f"{azimuth[keep].max():.1f} deg); set the scan's sector inside them (--sector)"
+        )
+    values = {
         moment: np.asarray(ds[var].values, np.float32)[order] for moment, var in mapping.items()
     }
     site, nyquist = file_site(tree, ds, path), file_nyquist(ds)
@@ -410,10 +384,22 @@ def _truth_sweep(
         range_m=range_m,
         radial_width_deg=float(width),
         gate_width_m=gate_width(range_m),
-        fields=clean_fields(fields),
+        fields=clean_fields(values),
         nyquist_velocity_ms=nyquist,
         site=site,
         source=path.name,
+        unmapped=tuple(unknown_names(names, mapping)),
+    )
+
+
+def no_reflectivity(where: str, names: list[str], mapping: dict[str, str]) -> ValueError:
+    """The refusal of a sweep without a reflectivity field PASIM knows by name: its fields
+    and how to name one."""
+    unknown = unknown_names(names, mapping)
+    return ValueError(
+        f"{where} has no reflectivity field known by name (its fields: "
+        f"{', '.join(names) or 'none'}); "
+        + (mapping_hint("DBZH", unknown) if unknown else "none of them can be taken for it")
     )
 
 
@@ -524,13 +510,17 @@ def is_level2(path: str | Path) -> bool:
 __all__ = [
     "ALIASES",
     "damaged",
+    "field_map",
     "file_nyquist",
     "file_site",
     "is_level2",
+    "mapping_hint",
+    "no_reflectivity",
     "open_radar_file",
     "read_radar_sweep",
     "read_radar_sweeps",
     "sweep_modes",
     "sweeps_from_tree",
     "text_value",
+    "unknown_names",
 ]

@@ -10,7 +10,7 @@ support in azimuth inside them (the weather channel refuses it otherwise).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +18,16 @@ import numpy as np
 
 from .gridding import clean_fields, gate_width, wrap360
 from .nexrad_io import TruthSweep
-from .radar_files import damaged, field_map, file_nyquist, file_site, sweep_axes, sweep_modes
+from .radar_files import (
+    damaged,
+    field_map,
+    file_nyquist,
+    file_site,
+    no_reflectivity,
+    sweep_axes,
+    sweep_modes,
+    unknown_names,
+)
 
 
 def only_rhis(tree: Any, where: str = "radar file") -> bool:
@@ -29,16 +38,25 @@ def only_rhis(tree: Any, where: str = "radar file") -> bool:
 
 
 def rhi_sweeps(
-    tree: Any, kind: str, path: Path, choose: Callable[[list[float]], list[float]]
+    tree: Any,
+    kind: str,
+    path: Path,
+    choose: Callable[[list[float]], list[float]],
+    fields: Mapping[str, str] | None = None,
 ) -> list[TruthSweep]:
     """Constant-elevation sweeps made of an RHI file's rays; ``choose`` is given the grid's
-    elevations and returns those to keep (each the nearest grid elevation)."""
+    elevations and returns those to keep (each the nearest grid elevation); ``fields`` names
+    the file's variable for a moment, as for a PPI file."""
     with damaged(f"{path} ({kind}), its RHIs", str(path)):
-        return _rhi_sweeps(tree, kind, path, choose)
+        return _rhi_sweeps(tree, kind, path, choose, fields)
 
 
 def _rhi_sweeps(
-    tree: Any, kind: str, path: Path, choose: Callable[[list[float]], list[float]]
+    tree: Any,
+    kind: str,
+    path: Path,
+    choose: Callable[[list[float]], list[float]],
+    given: Mapping[str, str] | None,
 ) -> list[TruthSweep]:
     rhis = []
     for name, angle, _ in sweep_modes(tree, f"{path} ({kind})"):
@@ -46,12 +64,12 @@ def _rhi_sweeps(
         _, elevation, range_m = sweep_axes(ds, f"{path} ({kind}), {name}", need_elevation=True)
         assert elevation is not None
         names = [str(n) for n in ds.data_vars if ds[n].ndim == 2]
-        mapping = field_map(names, {n: str(ds[n].attrs.get("standard_name", "")) for n in names})
+        where = f"{path} ({kind}), the RHI at azimuth {angle:g} deg"
+        standard = {n: str(ds[n].attrs.get("standard_name", "")) for n in names}
+        mapping = field_map(names, standard, given, where)
         if "DBZH" not in mapping:
-            raise ValueError(
-                f"{path} ({kind}): the RHI at azimuth {angle:g} deg has no reflectivity field "
-                f"(its fields: {', '.join(names) or 'none'})"
-            )
+            raise no_reflectivity(where, names, mapping)
+        unmapped = set(unknown_names(names, mapping))
         order = np.argsort(elevation, kind="stable")
         rhis.append(
             (
@@ -60,6 +78,7 @@ def _rhi_sweeps(
                 range_m,
                 {m: np.asarray(ds[v].values, np.float32)[order] for m, v in mapping.items()},
                 ds,
+                unmapped,
             )
         )
     rhis.sort(key=lambda r: r[0])
@@ -80,7 +99,7 @@ def _rhi_sweeps(
     sweeps = []
     for k in rows:
         fields = {n: np.full((azimuth.size, range_m.size), np.nan, np.float32) for n in moments}
-        for j, (_, el, _, values, _) in enumerate(rhis):
+        for j, (_, el, _, values, _, _) in enumerate(rhis):
             ray = int(np.argmin(np.abs(el - grid[k])))
             if abs(el[ray] - grid[k]) <= step / 2 + 1e-6:
                 for n in moments:
@@ -96,6 +115,7 @@ def _rhi_sweeps(
                 nyquist_velocity_ms=nyquist,
                 site=site,
                 source=path.name,
+                unmapped=tuple(sorted(set.intersection(*(r[5] for r in rhis)))),
             )
         )
     return sweeps
