@@ -69,6 +69,17 @@ TRUTH = PortType(
             "height": Var(
                 "float64", ("sweep", "gate"), "meters", "beam height (4/3 earth)", required=False
             ),
+            # A truth that carries its wind (truth.grid from u, v, w): east, north, up.
+            **{
+                f"volume_{k}_wind": Var(
+                    "float32",
+                    ("sweep", "radial", "gate"),
+                    "m s-1",
+                    f"{k} wind at each gate of a volume truth",
+                    required=False,
+                )
+                for k in ("eastward", "northward", "upward")
+            },
         },
         {
             "elevation_deg": Attr("float", "elevation of the sweep"),
