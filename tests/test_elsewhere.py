@@ -20,7 +20,7 @@ from pasim_blocks.truth.sites import seen_from
 from pasim_graph import Chunk
 from pasim_graph.graphfile import read
 
-from .conftest import GRAPHS
+from .conftest import GRAPHS, pasim_out
 
 pyproj = pytest.importorskip("pyproj")
 NO_BEAMS = np.arange(0)
@@ -180,7 +180,7 @@ def test_velocity_of_a_single_radar_truth_is_refused_in_one_line(tmp_path):
     assert "\n" not in message
     assert "radial velocity refused" in message and "cannot be projected" in message
     omit = ElsewhereTruth(name="view", east_m=5e3, max_range_m=5e3, velocity="omit")
-    with pytest.warns(Warning, match="no velocity"):
+    with pytest.warns(Warning, match="no radial velocity"):
         view = omit.process({"truth_in": truth}, Chunk(beams=NO_BEAMS))["truth"]
     assert "VRADH" not in view and "volume_VRADH" not in view
 
@@ -232,3 +232,27 @@ def test_a_single_sweep_truth_is_refused(truth_dataset):
     line naming what to set."""
     with pytest.raises(ValueError, match=r"needs a volume truth .*sweeps: volume"):
         ElsewhereTruth(name="view").process({"truth_in": truth_dataset}, Chunk(beams=NO_BEAMS))
+
+
+@pytest.mark.slow
+def test_the_elsewhere_graph_refuses_velocity_in_one_line(tmp_path, capsys):
+    """pasim run graphs/generic_radar_elsewhere.yaml with velocity: refuse (KLBB's velocity
+    is one radar's): exit 2, one line naming why, no traceback, no store (reads the volume:
+    slow)."""
+    out = tmp_path / "x.zarr"
+    graph = str(GRAPHS / "generic_radar_elsewhere.yaml")
+    code, _, err = pasim_out(
+        capsys,
+        "run",
+        graph,
+        "--set",
+        "view.velocity=refuse",
+        "--sector",
+        "280:282",
+        "--out",
+        str(out),
+    )
+    assert code == 2 and "Traceback" not in err, err
+    (line,) = [x for x in err.splitlines() if "error" in x]
+    assert "radial velocity refused" in line and "cannot be projected" in line
+    assert not (out / "sweep_0").exists()

@@ -114,8 +114,9 @@ class ElsewhereTruth(Block):
     wind projected on each new ray at the gate (exact); a single radar's volume cannot be
     projected, so with ``velocity: refuse`` the run stops with one line saying why, and with
     ``velocity: omit`` the truth has no VRADH (the weather channel takes 0 m/s, velocity is
-    not scored). The truth must be a volume (``truth.nexrad`` with ``sweeps: volume``, or
-    ``truth.grid``).
+    not scored; the spectrum width still moves with the gates, but is not scored either,
+    since the scorer's truth mixes widths with the velocities). The truth must be a volume
+    (``truth.nexrad`` with ``sweeps: volume``, or ``truth.grid``).
     """
 
     truth_in = Input(TRUTH, doc="truth volume from its own radar's site")
@@ -207,7 +208,7 @@ class ElsewhereTruth(Block):
                     "(no velocity) or use a truth.grid with u, v, w"
                 )
             warnings.warn(
-                f"truth {source}: no velocity or spectrum width from the new site: {WHY}",
+                f"truth {source}: no radial velocity from the new site: {WHY}",
                 RunNote,
                 2,
             )
