@@ -12,6 +12,8 @@ declared beamwidth, the roll against a rotation about the nose axis written out 
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 from pasim_blocks.scans.platform import earth_pointing
@@ -37,8 +39,14 @@ AIRBORNE = {
 
 
 def run(**overrides):
-    """uniform_ideal.yaml (ideal 1 deg beam, S band, T = 1 ms) at the expected level."""
-    graph = load(GRAPHS / "uniform_ideal.yaml", {**AIRBORNE, **overrides})
+    """uniform_ideal.yaml (ideal 1 deg beam, S band, T = 1 ms) at the expected level (each
+    run once per session: the tests read, never change, what it returns)."""
+    return _run(tuple(sorted(overrides.items())))
+
+
+@functools.lru_cache(maxsize=8)
+def _run(overrides):
+    graph = load(GRAPHS / "uniform_ideal.yaml", {**AIRBORNE, **dict(overrides)})
     return LocalExecutor(graph, RunOptions(seed=3)).run()
 
 
