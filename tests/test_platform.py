@@ -215,3 +215,33 @@ def test_the_velocity_error_with_random_draws():
     vp = by_hand_radial(raw)
     assert np.abs(beam_means(raw, "VRADH") + vp).max() < 0.1
     assert np.abs(beam_means(fixed, "VRADH") - beam_means(raw, "VRADH") - vp).max() < 1e-3
+
+
+def test_rates_acceleration_and_presets_over_the_scan():
+    """Each dwell is turned with the attitude at its middle and carries the velocity then: a
+    ship (8 m/s along its heading) turning at 2 deg/s and accelerating 0.5 m/s^2 east; the
+    dwell's middle is (beam + 1/2) x pulses x PRT after the start (by hand)."""
+    block = PPISector(
+        name="scan",
+        platform="ship",
+        platform_heading_deg=90.0,
+        platform_heading_rate_deg_s=2.0,
+        platform_acceleration_east_ms2=0.5,
+        azimuth_start_deg=0.0,
+        azimuth_stop_deg=40.0,
+        beam_spacing_deg=10.0,
+        elevation_deg=0.0,
+        pulses=100,
+        prt_s=0.01,
+    )
+    idx = np.arange(block.beam_count())
+    beams = block.process({}, Chunk(beams=idx))["beams"]
+    mid = (idx + 0.5) * 100 * 0.01
+    heading = 90.0 + 2.0 * mid
+    assert np.allclose(beams["heading"].values, heading)
+    assert np.allclose(beams["azimuth"].values, (heading + beams["array_azimuth"].values) % 360)
+    assert np.allclose(beams["eastward_velocity"].values, 8.0 + 0.5 * mid)
+    assert np.allclose(beams["northward_velocity"].values, 0.0, atol=1e-12)
+    u_east = np.sin(np.deg2rad(beams["azimuth"].values))
+    assert np.allclose(beams["platform_radial_velocity"].values, (8.0 + 0.5 * mid) * u_east)
+    assert str(beams["platform_type"].values) == "ship"
