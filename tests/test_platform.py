@@ -245,3 +245,36 @@ def test_rates_acceleration_and_presets_over_the_scan():
     u_east = np.sin(np.deg2rad(beams["azimuth"].values))
     assert np.allclose(beams["platform_radial_velocity"].values, (8.0 + 0.5 * mid) * u_east)
     assert str(beams["platform_type"].values) == "ship"
+
+
+def test_an_array_on_a_platform_steers_in_its_own_frame():
+    """A planar array whose face looks left (270 deg from the nose) on an aircraft heading
+    320 deg: its pattern for a beam steered 265 deg from the nose is the pattern a still array
+    facing 270 deg forms for a beam at 265 deg (same numbers), though the beam points at 225
+    deg on the earth."""
+    from pasim_blocks.antennas.planar import PlanarPatchArray
+
+    def pattern(**platform):
+        scan = PPISector(
+            name="scan",
+            azimuth_start_deg=264.5,
+            azimuth_stop_deg=265.5,
+            elevation_deg=-1.0,
+            **platform,
+        )
+        beams = scan.process({}, Chunk(beams=np.arange(1)))["beams"]
+        antenna = PlanarPatchArray(
+            name="a",
+            n_x=8,
+            n_y=8,
+            spacing_x_m=0.0535,
+            spacing_y_m=0.0535,
+            face_azimuth_deg=270.0,
+            grid_step_deg=0.5,
+        )
+        return beams, antenna.process({"beams": beams}, Chunk(beams=np.arange(1)))["pattern"]
+
+    moving, on_board = pattern(platform="airborne", platform_heading_deg=320.0)
+    _, still = pattern()
+    assert moving["azimuth"].values[0] == pytest.approx(225.0)
+    assert np.array_equal(on_board["power"].values, still["power"].values)
