@@ -69,6 +69,17 @@ TRUTH = PortType(
             "height": Var(
                 "float64", ("sweep", "gate"), "meters", "beam height (4/3 earth)", required=False
             ),
+            # A truth that carries its wind (truth.grid from u, v, w): east, north, up.
+            **{
+                f"volume_{k}_wind": Var(
+                    "float32",
+                    ("sweep", "radial", "gate"),
+                    "m s-1",
+                    f"{k} wind at each gate of a volume truth",
+                    required=False,
+                )
+                for k in ("eastward", "northward", "upward")
+            },
         },
         {
             "elevation_deg": Attr("float", "elevation of the sweep"),
@@ -118,6 +129,26 @@ BEAMS = PortType(
             "scan_rate": Var(
                 "float64", ("beam",), "degrees/s", "azimuth rate of the scan", required=False
             ),
+            # A scan on a platform (scan.ppi's platform): the array-frame steering, the
+            # platform's attitude and velocity at each dwell, and that velocity on the beam.
+            **{
+                name: Var("float64", ("beam",), units, doc, required=False)
+                for name, units, doc in (
+                    ("array_azimuth", "degrees", "azimuth steered in the array frame"),
+                    ("array_elevation", "degrees", "elevation steered in the array frame"),
+                    ("heading", "degrees", "platform heading"),
+                    ("pitch", "degrees", "platform pitch"),
+                    ("roll", "degrees", "platform roll"),
+                    ("eastward_velocity", "m s-1", "platform velocity east"),
+                    ("northward_velocity", "m s-1", "platform velocity north"),
+                    ("vertical_velocity", "m s-1", "platform velocity up"),
+                    (
+                        "platform_radial_velocity",
+                        "m s-1",
+                        "platform velocity along the beam (toward the target)",
+                    ),
+                )
+            },
             "pulses": Var("integer", (), "", "pulses per dwell (M)"),
             "sweep_number": Var("integer", (), "", "sweep index in the volume"),
             "sweep_mode": Var("str", (), "", "CfRadial sweep mode"),

@@ -82,18 +82,25 @@ def nominal_problems(graph: Graph) -> list[Problem]:
             chunk = Chunk(beams=beams, seed=0, block_name=source, resource=block.load(), sweep=k)
             out = block.process({}, chunk)
             ds = out[next(iter(cls.outputs))]
-            azimuth, elevation = ds["azimuth"].values, ds["elevation"].values
+            azimuth, elevation = steered(ds)
         except Exception:
             return problems
         problems += beam_problems(graph, k, len(sweeps), azimuth, elevation)
     return problems
 
 
+def steered(beams: Any) -> tuple[Any, Any]:
+    """Where the beams are steered in the antenna's own frame: ``array_azimuth`` and
+    ``array_elevation`` when the beam source gives them (a scan on a moving platform), else
+    ``azimuth`` and ``elevation``."""
+    if "array_azimuth" in beams:
+        return beams["array_azimuth"].values, beams["array_elevation"].values
+    return beams["azimuth"].values, beams["elevation"].values
+
+
 def check_beams(graph: Graph, sweep: int, n_sweeps: int, beams: Any) -> None:
     """Raise :class:`SteeringError` when a block cannot point at the beams of one sweep
     (``beams``: what the beam source gives for all of them, truth-aligned)."""
-    problems = beam_problems(
-        graph, sweep, n_sweeps, beams["azimuth"].values, beams["elevation"].values
-    )
+    problems = beam_problems(graph, sweep, n_sweeps, *steered(beams))
     if problems:
         raise SteeringError("; ".join(map(str, problems)))

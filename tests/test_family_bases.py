@@ -48,10 +48,13 @@ def test_each_processor_shares_the_bases_inputs_and_censoring(name):
     shared = ("iq", "noise_power", "calibration", "beams")
     assert list(cls.inputs)[:4] == list(shared)
     assert declared({k: cls.inputs[k] for k in shared}) == declared(MomentProcessor.inputs)
-    # The censoring thresholds come from the base, in its order, unchanged.
-    censoring = [k for k in MomentProcessor.params]
+    # The censoring thresholds come from the base, in its order, unchanged; so does the
+    # motion compensation (docs/platform.md).
+    censoring = [k for k in MomentProcessor.params if k in vars(Censoring)]
     assert censoring == [k for k in vars(Censoring) if not k.startswith("_")]
-    assert declared({k: cls.params[k] for k in censoring}) == declared(MomentProcessor.params)
+    assert list(MomentProcessor.params) == [*censoring, "motion_compensation"]
+    base = MomentProcessor.params
+    assert declared({k: cls.params[k] for k in base}) == declared(base)
     assert set(cls.outputs) == {"moments"} and "process" in vars(cls)
     # The interface is read from the class alone, the base's declarations included.
     interface = cls.interface()

@@ -20,7 +20,7 @@ import xarray as xr
 from pasim_graph import Block, Chunk, Input, Output
 
 from ..signals import BEAMS, PATTERN, POLARIZATIONS
-from .base import pattern_dataset, two_way_solid_angle
+from .base import pattern_dataset, steering, two_way_solid_angle
 from .geometry import DualPolField
 
 __all__ = ["Antenna", "DualPolField"]
@@ -102,10 +102,7 @@ class Antenna(Block, abc.ABC):
         omega = {
             p: two_way_solid_angle(power0[i], d_az, d_el, el0) for i, p in enumerate(POLARIZATIONS)
         }
-        grids = [
-            grid(float(a), float(e))
-            for a, e in zip(beams["azimuth"].values, beams["elevation"].values, strict=True)
-        ]
+        grids = [grid(float(a), float(e)) for a, e in zip(*steering(beams), strict=True)]
         empty = np.zeros((0, 2, d_el.size, d_az.size), complex)
         co = np.stack([g[0] for g in grids]) if grids else empty
         cross = np.stack([g[1] for g in grids]) if grids else empty

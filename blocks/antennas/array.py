@@ -27,6 +27,7 @@ from .base import (
     PHASE_ERROR,
     RANDOMIZE,
     pattern_dataset,
+    steering,
     two_way_solid_angle,
 )
 
@@ -189,7 +190,7 @@ class ArrayAntenna(Antenna):
         power = (co.real**2 + co.imag**2).astype(np.float32)
         calibration_sr = None
         if self.p["calibration"] == "per_beam":
-            elevations = beams["elevation"].values
+            elevations = steering(beams)[1]
             calibration_sr = np.array(
                 [
                     [

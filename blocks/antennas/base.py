@@ -88,6 +88,16 @@ CALIBRATION = Param(
 )
 
 
+def steering(beams: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
+    """Where an array steers each beam, in its own frame: the beams' ``array_azimuth`` and
+    ``array_elevation`` on a platform (the face then turns with the platform, and the pattern
+    is carried to the beam's earth direction by the weather channel), else their azimuth and
+    elevation (a still radar: one frame)."""
+    if "array_azimuth" in beams:
+        return beams["array_azimuth"].values, beams["array_elevation"].values
+    return beams["azimuth"].values, beams["elevation"].values
+
+
 def offsets(support_deg: float, step_deg: float) -> np.ndarray:
     n = int(np.ceil(support_deg / step_deg))
     return np.arange(-n, n + 1) * step_deg

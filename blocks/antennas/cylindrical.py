@@ -26,6 +26,7 @@ from .base import (
     PATTERN_SUPPORT,
     TAPER,
     offsets,
+    steering,
     two_way_solid_angle,
 )
 
@@ -459,9 +460,7 @@ class CylindricalArray(ArrayAntenna):
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         beams = inputs["beams"]
-        co, cross = self.beam_grids(
-            beams["azimuth"].values, beams["elevation"].values, chunk.seed, chunk.resource
-        )
+        co, cross = self.beam_grids(*steering(beams), chunk.seed, chunk.resource)
         ds = self.pattern_output(
             beams,
             co,

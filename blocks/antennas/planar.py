@@ -15,6 +15,7 @@ from .base import (
     PATTERN_SUPPORT,
     TAPER,
     offsets,
+    steering,
     two_way_solid_angle,
 )
 
@@ -291,7 +292,5 @@ class PlanarPatchArray(ArrayAntenna):
         beams = inputs["beams"]
         if not self.omega:
             self._broadside_solid_angles(chunk.resource)
-        co, cross = self.beam_grids(
-            beams["azimuth"].values, beams["elevation"].values, chunk.seed, chunk.resource
-        )
+        co, cross = self.beam_grids(*steering(beams), chunk.seed, chunk.resource)
         return {"pattern": self.pattern_output(beams, co, cross, antenna="planar")}

@@ -17,7 +17,7 @@ from typing import Any, ClassVar, NamedTuple
 import numpy as np
 import xarray as xr
 
-from pasim_graph import Block, Chunk, Input, Output
+from pasim_graph import Block, Chunk, Input, Output, Param
 
 from ..signals import (
     BEAMS,
@@ -63,6 +63,12 @@ class MomentProcessor(Censoring, Block):
     calibration = Input(CALIBRATION, doc="radar constant and gate ranges")
     beams = Input(BEAMS, doc="beam geometry (PRT, PRT ratio, transmit phases)")
     moments = Output(MOMENTS, store="moments", doc="estimated moments", fields=MOMENT_FIELDS)
+    motion_compensation = Param(
+        False,
+        type="bool",
+        doc="remove the platform's velocity along each beam (a moving scan's "
+        "platform_radial_velocity) from the echo before estimating, as airborne radars do",
+    )
 
     def setup(self) -> None:
         self._threshold_db = thresholds(self.p)
@@ -79,8 +85,11 @@ class MomentProcessor(Censoring, Block):
                 f"{mode!r}"
             )
         polarimetric = chunk.wants(*POLARIMETRIC_FIELDS)
+        iq = inputs["iq"]
+        if self.p["motion_compensation"] and "platform_radial_velocity" in beams:
+            iq = self._compensated(iq, beams, float(cal.attrs["wavelength_m"]))
         return Dwell(
-            iq=inputs["iq"],
+            iq=iq,
             noise=inputs["noise_power"],
             calibration=cal,
             beams=beams,
@@ -91,6 +100,31 @@ class MomentProcessor(Censoring, Block):
             polarimetric=polarimetric,
             dual=bool(cal.attrs.get("dual_polarization", 1)) and polarimetric,
         )
+
+    def _compensated(self, iq: np.ndarray, beams: xr.Dataset, wavelength_m: float) -> np.ndarray:
+        """The I/Q (beam x gate x pulse x channel) with each beam's platform Doppler removed:
+        pulse m times exp(-j 4 pi v_p m T / lambda)."""
+        if "prt_ratio" in beams:
+            raise ValueError(
+                f"{self.type_name or type(self).__name__}: motion_compensation needs a uniform "
+                "PRT (the scan's stagger is not uniform)"
+            )
+        vp = beams["platform_radial_velocity"].values
+        t = np.arange(iq.shape[2]) * float(beams["prt"].values[0])
+        phase = np.exp(-4j * np.pi / wavelength_m * vp[:, None] * t[None, :])
+        return iq * phase.astype(iq.dtype)[:, None, :, None]
+
+    def compensated_correlations(self, corr: np.ndarray, dwell: Dwell) -> np.ndarray:
+        """Expected echo correlations (beam x gate x product) with the platform Doppler
+        removed at each product's lag, when motion compensation is on (else as given)."""
+        beams = dwell.beams
+        if not (self.p["motion_compensation"] and "platform_radial_velocity" in beams):
+            return corr
+        from ..weather.motion import LAGS
+
+        vp = beams["platform_radial_velocity"].values
+        k = 4.0 * np.pi / dwell.wavelength_m
+        return corr * np.exp(-1j * k * vp[:, None] * LAGS[None, :] * dwell.prt_s)[:, None, :]
 
     def moments_output(
         self,

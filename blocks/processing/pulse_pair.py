@@ -224,7 +224,7 @@ class PulsePairProcessor(MomentProcessor):
                         "the I/Q cube has no pulses (weather method 'expected') but the input "
                         "'echo_correlations' is not connected"
                     )
-                expected = inputs["echo_correlations"]
+                expected = self.compensated_correlations(inputs["echo_correlations"], d)
                 corr = {k: expected[..., i] for i, k in enumerate(CORRELATION_PRODUCTS)}
                 keep = (
                     {"R0_H"}
@@ -254,7 +254,7 @@ class PulsePairProcessor(MomentProcessor):
                     "the I/Q cube has no pulses (weather method 'expected') but the input "
                     "'echo_correlations' is not connected"
                 )
-            expected = inputs["echo_correlations"]
+            expected = self.compensated_correlations(inputs["echo_correlations"], d)
             corr = {k: expected[..., i] for i, k in enumerate(CORRELATION_PRODUCTS)}
             keep = (
                 {"R0_H"} | ({"R1_H"} if doppler else set()) | ({"R0_V", "R0_HV"} if dual else set())

@@ -12,10 +12,11 @@ from pasim_graph.scores import mean_prt
 from ..angles import circular_difference, nearest_radial
 from ..timing import STAGGERS, sz_code
 from .beam_geometry import beam_dataset, seconds, site_and_start
+from .platform import PlatformParams, carry
 from .scan import DwellScan
 
 
-class PPISector(DwellScan):
+class PPISector(PlatformParams, DwellScan):
     """A PPI sector scan: beams at one elevation across an azimuth sector.
 
     Beams are spaced ``beam_spacing_deg`` apart from ``azimuth_start_deg`` clockwise to
@@ -24,6 +25,12 @@ class PPISector(DwellScan):
     the nearest truth radial, so the scores compare a beam with the radial it is centred on.
     0 to 360 deg is the full circle; a sector whose ends are equal, or narrower than one beam
     spacing, is refused at validation.
+
+    On a platform (``platform`` other than none, :mod:`pasim_blocks.scans.platform`) the
+    sector is steered in the array's frame (azimuth from the platform's nose, elevation above
+    its deck) and each beam is carried to the earth's through the platform's attitude at the
+    middle of its dwell; the beams then carry the platform's velocity and are not pointed at
+    the truth's radials.
     """
 
     azimuth_start_deg = Param(
@@ -102,7 +109,8 @@ class PPISector(DwellScan):
         az = self.nominal_azimuths()
         truth = inputs.get("truth")
         start, site = site_and_start(inputs, self.p["time_offset_s"])
-        if truth is not None and self.p["align_to_truth"]:
+        moving = self.p["platform"] != "none"
+        if truth is not None and self.p["align_to_truth"] and not moving:
             az = _snap(az, truth["azimuth"].values)
         beams = chunk.beams
         prt = self.p["prt_s"]
@@ -125,6 +133,8 @@ class PPISector(DwellScan):
             site=site,
             prt_mode="fixed" if self.p["stagger"] == "uniform" else "staggered",
         )
+        if moving:
+            ds = carry(ds, self.p, (beams + 0.5) * dwell)
         if self.p["stagger"] != "uniform":
             ds["prt_ratio"] = (
                 "beam",

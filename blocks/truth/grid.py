@@ -18,10 +18,12 @@ from .gridding import clean_fields, sector_order
 from .nexrad import truth_dataset
 from .nexrad_io import TruthSweep
 from .radar_files import damaged, field_map, mapping_hint, unknown_names
+from .sites import destination, distance_bearing, project_wind
 from .sizes import check_grid, check_zarr
 from .volume import (
     EARTH_RADIUS_M,
     INTERPOLATIONS,
+    K_EARTH,
     beam_height,
     ground_range,
     select_angles,
@@ -32,6 +34,13 @@ from .volume import (
 VERTICAL = ("z", "height", "altitude", "alt", "heightAboveSeaLevel")
 CARTESIAN = (("y", "north", "y_m"), ("x", "east", "x_m"))
 GEOGRAPHIC = (("lat", "latitude"), ("lon", "longitude"))
+#: The wind's components (east, north, up; m/s), by name (any case); up may be absent (0).
+WIND_NAMES = (
+    ("u", "eastward_wind", "ua", "u_wind"),
+    ("v", "northward_wind", "va", "v_wind"),
+    ("w", "upward_air_velocity", "wa", "w_wind"),
+)
+WIND_KEYS = ("eastward", "northward", "upward")
 
 
 class Grid:
@@ -59,8 +68,15 @@ class Grid:
                 + ") and x, y (metres) or lat, lon (degrees)"
             )
         names = [str(n) for n in ds.data_vars if ds[n].ndim == 3]
+        wind = [next((lower[n] for n in alias if n in lower), None) for alias in WIND_NAMES]
+        # With u and v the radial velocity is the wind on each ray (exact from any site).
+        self.wind = [w for w in wind if w is not None] if wind[0] and wind[1] else []
+        names = [n for n in names if n not in self.wind]
         standard = {n: str(ds[n].attrs.get("standard_name", "")) for n in names}
         self.mapping = field_map(names, standard, fields, f"gridded truth {source}")
+        if self.wind:
+            self.mapping.pop("VRADH", None)
+            self.mapping.update({f"{k}_wind": w for k, w in zip(WIND_KEYS, wind, strict=True) if w})
         if "DBZH" not in self.mapping:
             unknown = unknown_names(names, self.mapping)
             problems.append(
@@ -135,19 +151,6 @@ def open_grid(path: str | Path, fields: dict[str, str] | None = None) -> Grid:
         raise ValueError(f"gridded truth {path}: not a netCDF file or Zarr store ({exc})") from None
     with damaged(f"gridded truth {path}", path.name):
         return Grid(ds, path.name, fields)
-
-
-def destination(
-    lat_deg: float, lon_deg: float, azimuth_deg: np.ndarray, distance_m: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Latitude and longitude (deg) ``distance_m`` along the great circle at ``azimuth_deg``."""
-    lat1, lon1 = np.deg2rad(lat_deg), np.deg2rad(lon_deg)
-    az, d = np.deg2rad(azimuth_deg), np.asarray(distance_m) / EARTH_RADIUS_M
-    lat2 = np.arcsin(np.sin(lat1) * np.cos(d) + np.cos(lat1) * np.sin(d) * np.cos(az))
-    lon2 = lon1 + np.arctan2(
-        np.sin(az) * np.sin(d) * np.cos(lat1), np.cos(d) - np.sin(lat1) * np.sin(lat2)
-    )
-    return np.rad2deg(lat2), (np.rad2deg(lon2) + 180.0) % 360.0 - 180.0
 
 
 class GriddedTruth(Block):
@@ -286,10 +289,17 @@ class GriddedTruth(Block):
             list(np.arange(np.floor(lo / step) - 1, np.ceil(hi / step) + 2) * step), lo, hi
         )
         sampled = [self._sweep(grid, site, float(e), azimuth, rng, width) for e in elevations]
-        sweeps = [s for s, _ in sampled]
+        winds = [w for _, _, w in sampled if w is not None]
+        sweeps = [s for s, _, _ in sampled]
         reference = min(sweeps, key=lambda s: abs(s.elevation_deg - p["elevation_deg"]))
         variables, attrs = volume_variables(sweeps, reference, p["elevation_interpolation"], step)
-        outside = sum(n for _, n in sampled)
+        for i, k in enumerate(WIND_KEYS if winds else ()):
+            variables[f"volume_{k}_wind"] = (
+                ("sweep", "radial", "gate"),
+                np.stack([np.nan_to_num(w[i]) for w in winds]).astype(np.float32),
+                {"units": "m s-1"},
+            )
+        outside = sum(n for _, n, _ in sampled)
         if outside:
             warnings.warn(
                 f"truth {grid.source}: {outside} of the {rng.size * azimuth.size * len(sweeps)} "
@@ -326,8 +336,9 @@ class GriddedTruth(Block):
         azimuth: np.ndarray,
         rng: np.ndarray,
         width: float,
-    ) -> tuple[TruthSweep, int]:
-        """One virtual sweep, and how many of its gates lie outside the grid."""
+    ) -> tuple[TruthSweep, int, tuple[np.ndarray, ...] | None]:
+        """One virtual sweep, how many of its gates lie outside the grid, and the wind at its
+        gates (east, north, up; None without one)."""
         z = (self.p["altitude_m"] + beam_height(rng, elevation))[None, :]
         s = ground_range(rng, elevation)[None, :]
         az = azimuth[:, None]
@@ -341,15 +352,31 @@ class GriddedTruth(Block):
         outside = np.zeros(y.shape, bool)
         for axis, v in zip(grid.axes, (z, y, x), strict=True):
             outside |= (v < axis[0]) | (v > axis[-1])
+        sampled = grid.sample(z, y, x)
+        winds = None
+        wind = {k: sampled.pop(f"{k}_wind", None) for k in WIND_KEYS}
+        if wind["eastward"] is not None:
+            # The ray crosses the gate at el + s / (k a); its azimuth there is the radial's on
+            # a Cartesian grid, the great circle's final bearing on a geographic one.
+            ray_az = np.broadcast_to(az, y.shape)
+            if grid.kind == "geographic":
+                ray_az = np.where(s > 0, distance_bearing(site[0], site[1], y, x)[2], ray_az)
+            east, north = wind["eastward"], wind["northward"]
+            assert north is not None  # u and v come together (Grid)
+            up = wind["upward"] if wind["upward"] is not None else np.zeros_like(east)
+            sampled["VRADH"] = project_wind(
+                east, north, up, ray_az, elevation + np.rad2deg(s / (K_EARTH * EARTH_RADIUS_M))
+            ).astype(np.float32)
+            winds = (east, north, up)
         sweep = TruthSweep(
             azimuth_deg=azimuth,
             elevation_deg=elevation,
             range_m=rng,
             radial_width_deg=width,
             gate_width_m=float(self.p["gate_width_m"]),
-            fields=clean_fields(grid.sample(z, y, x)),
+            fields=clean_fields(sampled),
             nyquist_velocity_ms=float("nan"),
             site={},
             source=grid.source,
         )
-        return sweep, int(outside.sum())
+        return sweep, int(outside.sum()), winds

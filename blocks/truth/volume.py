@@ -204,11 +204,11 @@ def is_volume(truth: xr.Dataset) -> bool:
 
 
 def volume_fields(truth: xr.Dataset) -> dict[str, np.ndarray]:
-    """The volume's moments: name -> (sweep, radial, gate)."""
+    """The volume's moments: name -> (sweep, radial, gate) (not its wind, if it carries one)."""
     return {
         str(n).removeprefix("volume_"): truth[n].values
         for n in truth.data_vars
-        if str(n).startswith("volume_")
+        if str(n).removeprefix("volume_") in MOMENT_UNITS and str(n).startswith("volume_")
     }
 
 

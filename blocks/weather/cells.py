@@ -411,7 +411,11 @@ def filled(truth: xr.Dataset, name: str, echo: np.ndarray) -> np.ndarray:
 def flat_volume(truth: xr.Dataset) -> xr.Dataset:
     """A volume truth's sweeps as one (radial, gate) truth, sweep-major: row s x radials + j is
     sweep s, radial j (the rows the weather channel weights per beam and elevation)."""
-    names = [str(n) for n in truth.data_vars if str(n).startswith("volume_")]
+    names = [
+        str(n)
+        for n in truth.data_vars
+        if str(n).startswith("volume_") and not str(n).endswith("_wind")
+    ]
     n_s, n_r, n_g = truth.sizes["sweep"], truth.sizes["radial"], truth.sizes["gate"]
     return xr.Dataset(
         {

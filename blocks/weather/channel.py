@@ -50,6 +50,7 @@ from .coverage import check_coverage
 from .dsd import DropSizes
 from .expected import expected_correlations, expected_correlations_coupled
 from .fasttime import range_correlate, range_model
+from .motion import moving, platform_broadening, shift_echo
 from .per_cell import draw_per_cell, draw_per_cell_coupled
 from .polarimetry import (
     MODES,
@@ -114,6 +115,12 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
     are seen through the path's two-way rain and gaseous attenuation and the differential
     phase at this frequency, from the truth's KDP (:mod:`pasim_blocks.propagation`); the
     calibration then carries the two-way attenuation along each beam's axis.
+
+    A moving platform (the beams' ``platform_radial_velocity``,
+    :mod:`pasim_blocks.weather.motion`): each cell's radial velocity is relative to the radar
+    (the platform's velocity along the beam subtracted), and the platform's motion across the
+    beam widens the spectrum by Doviak and Zrnic's 0.3 v_perp theta_1, with the beam's own
+    widths measured on its pattern.
 
     Gates inside the blind range (one pulse length) are zero. Each beam draws from its own
     random streams (H and V apart). A truth without ZDR, RHOHV and PHIDP (single
@@ -303,6 +310,8 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
         key += (gamma, self.p["temperature_c"])
         volume = is_volume(truth)
         broadening = scan_broadening(beams, pattern, lam, self.p["antenna_motion"])
+        # On a moving platform, the motion across the beam widens each beam's spectrum.
+        broadening = platform_broadening(beams, pattern, broadening)
         path = self._propagated(truth, volume)
 
         def prepared(beam_broadening: float) -> tuple[Any, TruthCells]:
@@ -465,6 +474,14 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
         overlay = None
         if folded is not None:
             iq, corr, overlay = folded
+        if moving(beams):
+            # Every cell approached at the platform's velocity along the beam.
+            times = (
+                staggered[1] * staggered[0]
+                if staggered is not None
+                else np.arange(iq.shape[-1]) * prt_t1
+            )
+            shift_echo(iq, corr, beams, times, prt_t1, lam)
         # The receiver is off while the pulse goes out: nothing is received inside the blind
         # range (the processor masks those gates and the scorer never scores them).
         blind_m = float(response.attrs["blind_range_m"])
