@@ -69,6 +69,7 @@ from .store import (
 )
 from .store_check import missing_arrays, some
 from .store_relay import RelayError, relay_missing
+from .sweep_stage import run_stored_stage, stage_done
 from .sweeps import sweep_executors, sweep_group, volume_sweeps
 from .task_record import TaskRecord
 
@@ -516,7 +517,8 @@ class DaskExecutor:
             # Blocks that run once have done their I/O; workers need only per-chunk blocks.
             for sweep in self.sweeps:
                 plan = sweep.plan
-                plan.resources = {n: r for n, r in plan.resources.items() if n in plan.per_chunk}
+                keep = {*plan.per_chunk, *plan.sweep_level}
+                plan.resources = {n: r for n, r in plan.resources.items() if n in keep}
             t1 = time.perf_counter()
             if STOPPING.is_set():
                 # A run in another thread than the one signals stop (a study's runs at once).
@@ -534,6 +536,7 @@ class DaskExecutor:
                 # stop wrote nothing, and the store must not be marked complete.
                 raise Stopped(signal.SIGINT)
             record.tasks += [t for t in tasks if t is not None]
+            self._run_stages(path, static, {starts[i][0] for i in todo}, record)
         finally:
             if client is not None and self._client is None:
                 # The cluster may have failed to start; then there is nothing to close.
@@ -548,6 +551,26 @@ class DaskExecutor:
         return RunReport(
             len(starts), len(todo), n_beams, t1 - t0, t2 - t1, len(self.sweeps), on_target
         )
+
+    def _run_stages(self, path: Path, static: dict, rewritten: set[int], record: Any) -> None:
+        """Each sweep's sweep-level blocks, once its chunks are all written: in a sweep whose
+        stage has not finished, or one of whose chunks this run wrote (:mod:`.sweep_stage`)."""
+        for k, sweep in enumerate(self.sweeps):
+            group = sweep_group(k)
+            if not sweep.plan.sweep_level:
+                continue
+            if k in rewritten or not stage_done(str(path), group):
+                if STOPPING.is_set():
+                    raise Stopped(signal.SIGINT)
+                record.timed(
+                    "sweep stage",
+                    run_stored_stage,
+                    sweep,
+                    static,
+                    str(path),
+                    group,
+                    self.options.chunk_beams,
+                )
 
     def _lay_out(
         self, path: Path, lock: StoreLock, static: dict, attrs: dict[str, Any], n_chunks: int
