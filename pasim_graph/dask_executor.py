@@ -69,7 +69,7 @@ from .store import (
 )
 from .store_check import missing_arrays, some
 from .store_relay import RelayError, relay_missing
-from .sweep_stage import run_stored_stage, stage_done
+from .sweep_stage import run_stored_stage, stage_arrays, stage_done
 from .sweeps import sweep_executors, sweep_group, volume_sweeps
 from .task_record import TaskRecord
 
@@ -350,6 +350,7 @@ class DaskExecutor:
         self._cluster: Any = None
         self._client = client  # given: shared with other runs, never closed here
         self._disk_estimate = 0  # bytes the store will take, once the first beam has shown it
+        self._stage_redo: set[int] = set()  # sweeps whose stage must run again (arrays gone)
 
     def worker_classes(self) -> list[type[Block]]:
         """The block classes whose code runs on the workers (the per-chunk blocks)."""
@@ -442,6 +443,13 @@ class DaskExecutor:
             if state[0].get("pasim_run_key") != key:
                 raise ResumeError(resume_mismatch(path, state[0], inputs))
             missing = missing_arrays(path)
+            stage_missing = stage_arrays(self.local.plan, missing)
+            if stage_missing:
+                # A sweep-level block's array is gone: its stage runs again.
+                log(f"writing again {len(stage_missing)} missing array(s) of {path}'s sweep stage")
+                missing = [m for m in missing if m not in stage_missing]
+                self._stage_redo = {int(m.split("/")[0].split("_")[1]) for m in stage_missing}
+                mark_incomplete(path)
             if DONE in missing:
                 # Which chunks were done is lost (a finished store's consolidated metadata
                 # still names the flags): every chunk is run again, on a fresh layout.
@@ -477,7 +485,7 @@ class DaskExecutor:
                 )
                 done[repair] = False
                 mark_incomplete(path)
-            elif complete and not missing:
+            elif complete and not missing and not self._stage_redo:
                 log(f"{path} is already complete")
                 return RunReport(len(starts), 0, n_beams, sweeps=len(self.sweeps))
         attrs = {
@@ -536,7 +544,8 @@ class DaskExecutor:
                 # stop wrote nothing, and the store must not be marked complete.
                 raise Stopped(signal.SIGINT)
             record.tasks += [t for t in tasks if t is not None]
-            self._run_stages(path, static, {starts[i][0] for i in todo}, record)
+            rewritten = {starts[i][0] for i in todo} | self._stage_redo
+            self._run_stages(path, static, rewritten, record)
         finally:
             if client is not None and self._client is None:
                 # The cluster may have failed to start; then there is nothing to close.

@@ -111,6 +111,10 @@ def plan(graph: Graph, options: RunOptions) -> Plan:
         ports = [p.name for p in cls.outputs.values() if p.store in options.wanted]
         if ports:
             sinks[name] = ports
+    if options.fields is not None:
+        # --outputs names moments: the sweep-level blocks (which read whole sweeps of them)
+        # are not run.
+        sinks = {n: ports for n, ports in sinks.items() if not is_sweep_level(graph.classes[n])}
     needed = set(sinks)
     for name in sinks:
         needed |= nx.ancestors(graph.nx, name)

@@ -32,6 +32,18 @@ if TYPE_CHECKING:
 STAGE_DONE = "pasim_sweep_stage_done"
 
 
+def stage_arrays(plan: Any, arrays: list[str]) -> list[str]:
+    """Those of ``arrays`` (paths in a store, ``sweep_0/NAME``) that a sweep-level block of
+    ``plan`` writes: gone, they are written again by running the stage again, not by laying
+    out the sweep again (the layout does not hold them)."""
+    names: set[str] = set()
+    for block in plan.sweep_level:
+        for port in plan.sinks.get(block, []):
+            schema = plan.graph.classes[block].outputs[port].type.schema
+            names |= set(schema.variables) if schema else set()
+    return [a for a in arrays if "/" in a and a.split("/", 1)[1] in names]
+
+
 def stage_done(path: str, group: str) -> bool:
     """True when the sweep stage of ``group`` in the store at ``path`` finished."""
     import zarr

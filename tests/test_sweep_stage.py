@@ -139,6 +139,14 @@ def test_killed_stage_is_run_again_and_a_finished_one_is_not(capsys, tmp_path, t
     assert stage_runs(full) == [1, 1, 0]
     assert_same_sweep(sweep(full), reference)
 
+    # A stage array removed from a finished store: --resume runs the stage again.
+    group = zarr.open_group(str(full), path="sweep_0", mode="r+", use_consolidated=False)
+    del group["DBZH_ANOMALY"]
+    code, _, err = pasim_out(capsys, *args, "--out", str(full), "--resume")
+    assert code == 0, err
+    assert "missing array(s)" in err and stage_runs(full)[-1] == 1
+    assert_same_sweep(sweep(full), reference)
+
 
 @pytest.mark.slow
 def test_dealiasing_stage_gives_the_same_fields_at_any_chunking(capsys, tmp_path):
@@ -224,3 +232,15 @@ def test_connections_a_sweep_stage_cannot_serve_are_named():
     backwards = stage_problems(classes, [Edge("s", "out", "a", "beams_in")])
     assert len(backwards) == 1 and "only another sweep-level block" in backwards[0][1]
     assert SweepLevel.interface()["sweep_level"] is True
+
+
+def test_outputs_leave_the_sweep_level_blocks_out(toy_graph):
+    """--outputs DBZH computes some moments only: the sweep-level blocks, which read whole
+    sweeps of the moments, are not planned."""
+    from pasim_graph.cli import load_graph
+    from pasim_graph.executor import RunOptions, plan
+
+    args = argparse.Namespace(graph=toy_graph[0], truth=None, sector="0:12", set=[])
+    graph = load_graph(args)
+    assert plan(graph, RunOptions()).sweep_level == ["anomaly"]
+    assert plan(graph, RunOptions(fields=("DBZH",))).sweep_level == []
