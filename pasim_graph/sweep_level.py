@@ -79,6 +79,20 @@ def stored_value(sweep: xr.Dataset, cls: type[Block], port: str) -> xr.Dataset:
     return sweep[names]
 
 
+def stored_inputs(plan: Any) -> set[str]:
+    """The variables of a stored sweep that the sweep-level blocks of ``plan`` read (those of
+    the schemas of the per-chunk outputs that feed them): the stage loads only these (not the
+    I/Q cubes of a run with ``--save-iq``)."""
+    out: set[str] = set()
+    for name in plan.sweep_level:
+        for e in plan.graph.inputs_of(name):
+            cls = plan.graph.classes[e.src]
+            if e.src in plan.per_chunk and not is_sweep_level(cls):
+                schema = cls.outputs[e.src_port].type.schema
+                out |= set(schema.variables) if schema else set()
+    return out
+
+
 def run_stage(executor: Any, static: dict[tuple[str, str], Any], sweep: xr.Dataset) -> list[Any]:
     """Run the sweep-level blocks of ``executor`` (a :class:`.executor.LocalExecutor`, one
     sweep's) on the whole ``sweep`` (as merged or as stored) and return their stored outputs,

@@ -23,7 +23,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from .ports import BEAM_DIM
-from .sweep_level import run_stage
+from .sweep_level import run_stage, stored_inputs
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -114,5 +114,7 @@ def run_stored_stage(
     from .store import quiet_zarr_warnings
 
     with quiet_zarr_warnings():
-        sweep = xr.open_zarr(path, group=group, consolidated=False).load()
+        stored = xr.open_zarr(path, group=group, consolidated=False)
+        wanted = stored_inputs(executor.plan)
+        sweep = stored[[n for n in stored.data_vars if n in wanted]].load()
     write_stage(path, group, run_stage(executor, static, sweep), chunk_beams)
