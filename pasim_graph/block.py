@@ -111,6 +111,9 @@ class Block:
     type_name: ClassVar[str] = TypeName()  # type: ignore[assignment]
     #: Set on the block that defines the beams of a scan (exactly one per graph).
     beam_source: ClassVar[bool] = False
+    #: Set on a block that runs once per sweep, on the whole sweep, after the sweep's chunks
+    #: are written (an algorithm that needs neighbouring radials): :mod:`.sweep_stage`.
+    sweep_level: ClassVar[bool] = False
     #: Roles the command line can address: ``"truth"`` (``--truth``), ``"scan"`` (``--sector``).
     role: ClassVar[str] = ""
 
@@ -304,6 +307,7 @@ class Block:
             "description": inspect.cleandoc(cls.__doc__ or ""),
             "role": cls.role,
             "beam_source": cls.beam_source,
+            "sweep_level": cls.sweep_level,
             "fidelity_ladder": [{"label": k, "params": dict(v)} for k, v in cls.fidelity_ladder],
             "inputs": [p.to_json() for p in cls.inputs.values()],
             "outputs": [p.to_json() for p in cls.outputs.values()],

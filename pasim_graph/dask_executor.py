@@ -69,6 +69,7 @@ from .store import (
 )
 from .store_check import missing_arrays, some
 from .store_relay import RelayError, relay_missing
+from .sweep_stage import run_stored_stage, stage_arrays, stage_done
 from .sweeps import sweep_executors, sweep_group, volume_sweeps
 from .task_record import TaskRecord
 
@@ -349,6 +350,7 @@ class DaskExecutor:
         self._cluster: Any = None
         self._client = client  # given: shared with other runs, never closed here
         self._disk_estimate = 0  # bytes the store will take, once the first beam has shown it
+        self._stage_redo: set[int] = set()  # sweeps whose stage must run again (arrays gone)
 
     def worker_classes(self) -> list[type[Block]]:
         """The block classes whose code runs on the workers (the per-chunk blocks)."""
@@ -441,6 +443,13 @@ class DaskExecutor:
             if state[0].get("pasim_run_key") != key:
                 raise ResumeError(resume_mismatch(path, state[0], inputs))
             missing = missing_arrays(path)
+            stage_missing = stage_arrays(self.local.plan, missing)
+            if stage_missing:
+                # A sweep-level block's array is gone: its stage runs again.
+                log(f"writing again {len(stage_missing)} missing array(s) of {path}'s sweep stage")
+                missing = [m for m in missing if m not in stage_missing]
+                self._stage_redo = {int(m.split("/")[0].split("_")[1]) for m in stage_missing}
+                mark_incomplete(path)
             if DONE in missing:
                 # Which chunks were done is lost (a finished store's consolidated metadata
                 # still names the flags): every chunk is run again, on a fresh layout.
@@ -476,7 +485,7 @@ class DaskExecutor:
                 )
                 done[repair] = False
                 mark_incomplete(path)
-            elif complete and not missing:
+            elif complete and not missing and not self._stage_redo:
                 log(f"{path} is already complete")
                 return RunReport(len(starts), 0, n_beams, sweeps=len(self.sweeps))
         attrs = {
@@ -516,7 +525,8 @@ class DaskExecutor:
             # Blocks that run once have done their I/O; workers need only per-chunk blocks.
             for sweep in self.sweeps:
                 plan = sweep.plan
-                plan.resources = {n: r for n, r in plan.resources.items() if n in plan.per_chunk}
+                keep = {*plan.per_chunk, *plan.sweep_level}
+                plan.resources = {n: r for n, r in plan.resources.items() if n in keep}
             t1 = time.perf_counter()
             if STOPPING.is_set():
                 # A run in another thread than the one signals stop (a study's runs at once).
@@ -534,6 +544,8 @@ class DaskExecutor:
                 # stop wrote nothing, and the store must not be marked complete.
                 raise Stopped(signal.SIGINT)
             record.tasks += [t for t in tasks if t is not None]
+            rewritten = {starts[i][0] for i in todo} | self._stage_redo
+            self._run_stages(path, static, rewritten, record)
         finally:
             if client is not None and self._client is None:
                 # The cluster may have failed to start; then there is nothing to close.
@@ -548,6 +560,26 @@ class DaskExecutor:
         return RunReport(
             len(starts), len(todo), n_beams, t1 - t0, t2 - t1, len(self.sweeps), on_target
         )
+
+    def _run_stages(self, path: Path, static: dict, rewritten: set[int], record: Any) -> None:
+        """Each sweep's sweep-level blocks, once its chunks are all written: in a sweep whose
+        stage has not finished, or one of whose chunks this run wrote (:mod:`.sweep_stage`)."""
+        for k, sweep in enumerate(self.sweeps):
+            group = sweep_group(k)
+            if not sweep.plan.sweep_level:
+                continue
+            if k in rewritten or not stage_done(str(path), group):
+                if STOPPING.is_set():
+                    raise Stopped(signal.SIGINT)
+                record.timed(
+                    "sweep stage",
+                    run_stored_stage,
+                    sweep,
+                    static,
+                    str(path),
+                    group,
+                    self.options.chunk_beams,
+                )
 
     def _lay_out(
         self, path: Path, lock: StoreLock, static: dict, attrs: dict[str, Any], n_chunks: int

@@ -3,7 +3,8 @@
 :class:`LocalExecutor` runs a graph in process, chunk after chunk (the debugging path).
 A block whose ports carry no ``beam`` dimension runs once and its outputs are shared by every
 chunk; the others run once per chunk of beams. Only the blocks that feed a requested product
-run at all.
+run at all. A sweep-level block runs once on the whole sweep, after every chunk
+(:mod:`.sweep_stage`).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from .block import Block, Chunk
 from .graph import Graph
 from .ports import BEAM_DIM
 from .steering import check_beams, steerers
+from .sweep_level import is_sweep_level, run_stage
 
 
 class BlockError(RuntimeError):
@@ -98,6 +100,8 @@ class Plan:
     sinks: dict[str, list[str]]  # block -> its output ports that are written
     beam_count: int
     resources: dict[str, Any] = field(default_factory=dict)
+    #: Blocks that run once per sweep on the whole sweep, after its chunks (in order).
+    sweep_level: list[str] = field(default_factory=list)
 
 
 def plan(graph: Graph, options: RunOptions) -> Plan:
@@ -107,6 +111,10 @@ def plan(graph: Graph, options: RunOptions) -> Plan:
         ports = [p.name for p in cls.outputs.values() if p.store in options.wanted]
         if ports:
             sinks[name] = ports
+    if options.fields is not None:
+        # --outputs names moments: the sweep-level blocks (which read whole sweeps of them)
+        # are not run.
+        sinks = {n: ports for n, ports in sinks.items() if not is_sweep_level(graph.classes[n])}
     needed = set(sinks)
     for name in sinks:
         needed |= nx.ancestors(graph.nx, name)
@@ -126,9 +134,12 @@ def plan(graph: Graph, options: RunOptions) -> Plan:
             blocks[n] = cls(name=n, **params)
         except Exception as exc:
             raise BlockError(n, cls.type_name, None, exc) from exc
-    static = [n for n in order if not graph.classes[n].runs_per_chunk()]
-    per_chunk = [n for n in order if graph.classes[n].runs_per_chunk()]
-    return Plan(graph, blocks, static, per_chunk, sinks, blocks[source].beam_count())
+    stage = [n for n in order if is_sweep_level(graph.classes[n])]
+    static = [n for n in order if not graph.classes[n].runs_per_chunk() and n not in stage]
+    per_chunk = [n for n in order if graph.classes[n].runs_per_chunk() and n not in stage]
+    return Plan(
+        graph, blocks, static, per_chunk, sinks, blocks[source].beam_count(), sweep_level=stage
+    )
 
 
 def merge_products(parts: list[xr.Dataset]) -> xr.Dataset:
@@ -270,4 +281,6 @@ class LocalExecutor:
             for group in zip(*parts, strict=True)
         ]
         merged += self.static_products(static)
+        if self.plan.sweep_level:
+            merged += run_stage(self, static, merge_products(merged))
         return merge_products(merged)

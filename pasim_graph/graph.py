@@ -29,6 +29,7 @@ from .graphfile import (
     read,
 )
 from .steering import nominal_problems
+from .sweep_level import stage_problems
 
 
 class GraphError(Exception):
@@ -379,6 +380,9 @@ def validate(spec: GraphSpec, overrides: dict[str, Any] | None = None) -> Graph:
         problems.append(
             Problem(f, spec.blocks[cycle[0]].line, cycle[0], "connections", f"cycle: {path}")
         )
+
+    for block, message in stage_problems(classes, edges):
+        problems.append(Problem(f, spec.blocks[block].line, block, "connections", message))
 
     if spec.blocks_read and not spec.blocks:
         problems.append(

@@ -161,19 +161,24 @@ def print_scores(
     of ``no_truth`` has a row that says so."""
     if not scores:
         return
+    # Products of sweep-level blocks have longer names than the moments (VRADH_DEALIASED_...).
+    w = max(8, *(len(n) for n in scores))
     print(
-        f"{'moment':8} {'bias':>9} {'std':>9} {'count':>8}  {'req bias/std':>14}  pass", file=stream
+        f"{'moment':{w}} {'bias':>9} {'std':>9} {'count':>8}  {'req bias/std':>14}  pass",
+        file=stream,
     )
     for name, s in scores.items():
         req = f"{s['requirement_bias']:g}/{s['requirement_std']:g}"
         print(
-            f"{name:8} {s['bias']:9.4f} {s['std']:9.4f} {s['count']:8d}  {req:>14}  "
+            f"{name:{w}} {s['bias']:9.4f} {s['std']:9.4f} {s['count']:8d}  {req:>14}  "
             f"{'yes' if s['pass'] else 'no'}",
             file=stream,
         )
     for name in no_truth or []:
         if name not in scores:
-            print(f"{name:8} {'no truth':>9}  (the truth holds no {name}: not scored)", file=stream)
+            print(
+                f"{name:{w}} {'no truth':>9}  (the truth holds no {name}: not scored)", file=stream
+            )
     first = next(iter(scores.values()))
     if first.get("scored"):
         print(f"scored gates: {first['scored']}", file=stream)

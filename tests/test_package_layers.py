@@ -38,6 +38,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("pasim_blocks.weather",),
     ("pasim_blocks.receivers",),
     ("pasim_blocks.processing",),
+    ("pasim_blocks.algorithms",),
     ("pasim_blocks.products",),
     ("pasim_blocks.study",),
     ("pasim_blocks.commands",),
