@@ -94,9 +94,9 @@ def test_hostile_graph_files_are_refused_promptly(kind, tmp_path):
 
 
 def test_a_billion_laughs_is_refused_in_well_under_a_second():
-    t0 = time.perf_counter()
+    t0 = time.process_time()  # CPU time: the wall clock of a loaded machine measures others
     spec = parse(billion_laughs(), "bomb.yaml")
-    assert time.perf_counter() - t0 < 1.0
+    assert time.process_time() - t0 < 1.0
     assert [p.message for p in spec.problems] == [
         "anchors and aliases (&name, *name) are not allowed in graph files"
     ]

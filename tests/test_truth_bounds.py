@@ -22,30 +22,32 @@ from .conftest import FIXTURES
 
 ODIM = FIXTURES / "truth" / "T_PAZD63_C_LFPW_20230420065331.h5"
 
-#: The refusal's bounds.
+#: The refusal's bounds: CPU seconds of the call (not wall time: on a loaded machine the wall
+#: clock measures the other processes; reading the billion gates would take minutes of CPU)
+#: and the peak resident memory.
 SECONDS, MEGABYTES = 2.0, 300.0
 
 MEASURE = """
 import json, sys, time
 {imports}
-start = time.perf_counter()
+start, cpu_start = time.perf_counter(), time.process_time()
 try:
     {call}
     message = "read"
 except ValueError as exc:
     message = str(exc)
-seconds = time.perf_counter() - start
+seconds, cpu = time.perf_counter() - start, time.process_time() - cpu_start
 # VmHWM, the peak resident memory of this process's own address space: ru_maxrss would
 # carry over the parent's peak across fork and exec (a large pytest process's)
 status = open("/proc/self/status").read()
 peak = int(status.split("VmHWM:")[1].split()[0]) / 1024
-print(json.dumps({{"seconds": seconds, "peak_mb": peak, "message": message}}))
+print(json.dumps({{"seconds": seconds, "cpu_s": cpu, "peak_mb": peak, "message": message}}))
 """
 
 
 def measured(imports: str, call: str) -> dict:
     """Run ``call`` after ``imports`` in a fresh interpreter, under a 4 GiB address-space
-    limit (a regression fails instead of taking the machine): seconds of the call, the
+    limit (a regression fails instead of taking the machine): wall and CPU seconds of the call, the
     process's peak resident memory (MB, VmHWM; imports included), and the refusal's
     message."""
     limit = "import resource; resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))\n"
@@ -62,7 +64,7 @@ def refused_quickly(result: dict, *words: str) -> None:
     for word in words:
         assert word in result["message"], result
     assert "\n" not in result["message"]
-    assert result["seconds"] < SECONDS, result
+    assert result["cpu_s"] < SECONDS, result
     assert result["peak_mb"] < MEGABYTES, result
 
 
