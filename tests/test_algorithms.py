@@ -67,6 +67,22 @@ def test_dealiasing_recovers_a_smooth_folded_field(method):
     assert out[f"error_{name}"].attrs["pasim_role"] == "error"
 
 
+def test_unwrap_phase_repeats_itself_and_refuses_a_two_beam_sweep():
+    """Same sweep, same answer (the seed rule): Py-ART's 2-D unwrapping of a two-beam sweep
+    differed between calls in one process, so two beams are refused in one line; on three
+    beams and more, three calls give one answer to the bit."""
+    az, r = np.meshgrid(np.arange(3), np.arange(200), indexing="ij")
+    truth = 20.0 * np.sin(np.deg2rad(280 + az)) + np.linspace(-15, 15, 200)[None, :] + 0 * r
+    moments, scores = sweep(3, VRADH=wrap(truth, 8.0), truth_VRADH=truth)
+    block = VelocityDealias("d", method="unwrap_phase")
+    answers = [run(block, moments, scores)["VRADH_DEALIASED_UNWRAP"].values for _ in range(3)]
+    for a in answers[1:]:
+        np.testing.assert_array_equal(a, answers[0])
+    two, scores2 = sweep(2, VRADH=wrap(truth[:2], 8.0), truth_VRADH=truth[:2])
+    with pytest.raises(ValueError, match="at least 3 beams .this one has 2.*method: region"):
+        run(block, two, scores2)
+
+
 def test_dealiasing_refuses_a_sweep_without_velocity():
     moments, scores = sweep(DBZH=np.zeros((20, 200)), truth_VRADH=np.zeros((20, 200)))
     with pytest.raises(ValueError, match="block 'd' needs VRADH in the sweep"):

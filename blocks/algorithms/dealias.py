@@ -21,6 +21,11 @@ from .sweep_radar import (
     scored_gates,
 )
 
+#: Py-ART 2.3's unwrap-phase dealiasing of a two-beam sweep changed from one call to the next
+#: (by 2 Nyquist velocities, measured on a synthetic field; three and more beams repeat
+#: exactly): the block refuses fewer beams rather than give a run numbers it cannot repeat.
+MIN_UNWRAP_BEAMS = 3
+
 METHODS = {"region": "VRADH_DEALIASED_REGION", "unwrap_phase": "VRADH_DEALIASED_UNWRAP"}
 
 
@@ -62,6 +67,13 @@ class VelocityDealias(Block):
             )
             dealiased = filled(out)
         else:
+            if velocity.shape[0] < MIN_UNWRAP_BEAMS:
+                raise ValueError(
+                    f"block '{self.name}': method unwrap_phase needs a sweep of at least "
+                    f"{MIN_UNWRAP_BEAMS} beams (this one has {velocity.shape[0]}): on fewer, "
+                    "Py-ART's 2-D unwrapping answers differently from one call to the next; "
+                    "use a wider sector or method: region"
+                )
             add_field(radar, "velocity", np.nan_to_num(velocity, nan=0.0), "m/s")
             out = correct.dealias_unwrap_phase(
                 radar,
