@@ -303,6 +303,10 @@ def split_volume(sweep: xr.Dataset, attrs: dict[str, Any]) -> tuple[xr.Dataset, 
         if name in sweep.variables:
             root[name] = sweep[name].variable
             sweep = sweep.drop_vars(name)
+    if "platform_type" in root and str(root["platform_type"].values) != "fixed":
+        # FM-301: a ship's or an aircraft's radar is a mobile platform (provenance's "false"
+        # is the still ground radar's).
+        root.attrs["platform_is_mobile"] = "true"
     return root, sweep
 
 

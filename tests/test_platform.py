@@ -278,3 +278,23 @@ def test_an_array_on_a_platform_steers_in_its_own_frame():
     _, still = pattern()
     assert moving["azimuth"].values[0] == pytest.approx(225.0)
     assert np.array_equal(on_board["power"].values, still["power"].values)
+
+
+@pytest.mark.parametrize(
+    ("kind", "mobile"), [("fixed", "false"), ("ship", "true"), ("aircraft", "true")]
+)
+def test_the_store_says_whether_its_platform_is_mobile(kind, mobile):
+    """FM-301's ``platform_is_mobile`` follows the scan's ``platform_type``: a store of the
+    airborne graph said "false" (provenance's still ground radar) before."""
+    import xarray as xr
+
+    from pasim_graph.provenance import provenance
+    from pasim_graph.store import split_volume
+
+    sweep = xr.Dataset(
+        {"DBZH": (("beam", "range"), np.zeros((2, 3))), "platform_type": ((), kind)},
+        coords={"azimuth": ("beam", [0.0, 1.0]), "range": [1.0, 2.0, 3.0]},
+    )
+    root, rest = split_volume(sweep, provenance("test", "pasim run"))
+    assert root.attrs["platform_is_mobile"] == mobile
+    assert str(root["platform_type"].values) == kind and "platform_type" not in rest
