@@ -79,7 +79,7 @@ def test_unwrap_phase_repeats_itself_and_refuses_a_two_beam_sweep():
     for a in answers[1:]:
         np.testing.assert_array_equal(a, answers[0])
     two, scores2 = sweep(2, VRADH=wrap(truth[:2], 8.0), truth_VRADH=truth[:2])
-    with pytest.raises(ValueError, match="at least 3 beams .this one has 2.*method: region"):
+    with pytest.raises(ValueError, match=r"at least 3 beams \(this one has 2\).*method: region"):
         run(block, two, scores2)
 
 
