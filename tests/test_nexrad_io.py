@@ -637,3 +637,30 @@ def test_equal_azimuths_pair_with_the_earlier_radial() -> None:
     source = np.array([10.0, 20.0, 20.0, 359.9, 0.1, 0.1])
     target = np.array([19.9, 20.1, 20.0, 0.05, 5.0])
     np.testing.assert_array_equal(_nearest_circular(target, source, 0.5), [1, 1, 1, 4, -1])
+
+
+def test_record_cache_answers_by_content(truth_file: Path, tmp_path: Path) -> None:
+    """The per-process cache of decompressed records (level2_file.decompressed_record) gives
+    what bzip2 gives (the independent computation: bz2.decompress of each record), and a file
+    changed in place is decoded afresh, never answered from the cache by its path."""
+    import bz2
+
+    from pasim_blocks.truth import level2_file
+
+    raw = level2_file.open_volume(truth_file)
+    first = list(level2_file.records(raw, truth_file))
+    again = list(level2_file.records(raw, truth_file))
+    assert again == first
+    pos, expected = level2_file.VOLUME_HEADER_BYTES, []
+    while pos + 4 <= len(raw) and len(expected) < 3:
+        size = abs(int.from_bytes(raw[pos : pos + 4], "big", signed=True))
+        expected.append(bz2.decompress(raw[pos + 4 : pos + 4 + size]))
+        pos += 4 + size
+    assert first[:3] == expected
+    # The same path, the second record's bytes damaged: an error, not the cached record.
+    damaged = bytearray(raw)
+    start = level2_file.VOLUME_HEADER_BYTES
+    second = start + 4 + abs(int.from_bytes(raw[start : start + 4], "big", signed=True))
+    damaged[second + 40 : second + 48] = bytes(8)
+    with pytest.raises(ValueError, match="corrupt bzip2 record"):
+        list(level2_file.records(bytes(damaged), truth_file))
