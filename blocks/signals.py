@@ -126,6 +126,23 @@ BEAMS = PortType(
                 "transmit phase of each pulse of a phase-coded scan (absent: none)",
                 required=False,
             ),
+            # What the transmitter puts on the code besides its phase (scan.ppi's
+            # phase_code_error_deg and phase_code_ripple_db): the echoes carry them, the
+            # processors decode with transmit_phase alone.
+            "transmit_phase_error": Var(
+                "float64",
+                ("beam", "pulse"),
+                "radians",
+                "error of each coded pulse's transmitted phase (absent: none)",
+                required=False,
+            ),
+            "transmit_amplitude": Var(
+                "float64",
+                ("beam", "pulse"),
+                "1",
+                "voltage amplitude of each coded pulse over the nominal (absent: 1)",
+                required=False,
+            ),
             "scan_rate": Var(
                 "float64", ("beam",), "degrees/s", "azimuth rate of the scan", required=False
             ),

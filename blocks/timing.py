@@ -2,7 +2,8 @@
 
 Read from the scan's beams (:data:`pasim_blocks.signals.BEAMS`): ``prt`` is the (first) PRT
 T1; a staggered scan adds ``prt_ratio`` = T1 / T2 (2/3 or 3/4), its pulses alternating T1, T2,
-T1, ... apart; a phase-coded scan adds ``transmit_phase``, each pulse's transmit phase (rad).
+T1, ... apart; a phase-coded scan adds ``transmit_phase``, each pulse's transmit phase (rad),
+and, when its transmitter is not ideal, ``transmit_phase_error`` and ``transmit_amplitude``.
 """
 
 from __future__ import annotations
@@ -47,6 +48,26 @@ def transmit_phase(beams: xr.Dataset, pulses: int) -> np.ndarray | None:
     if "transmit_phase" not in beams:
         return None
     return np.asarray(beams["transmit_phase"].values, np.float64).reshape(-1, pulses)
+
+
+def code_errors(beams: xr.Dataset, pulses: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """What the transmitter adds to a phase code (beam x pulse each): the phase error (rad)
+    and the voltage amplitude over the nominal of each pulse; None for an ideal code. The
+    echoes carry them; a receiver decodes with :func:`transmit_phase` alone."""
+    if "transmit_phase_error" not in beams:
+        return None
+    phase = np.asarray(beams["transmit_phase_error"].values, np.float64).reshape(-1, pulses)
+    amplitude = np.asarray(beams["transmit_amplitude"].values, np.float64).reshape(-1, pulses)
+    return phase, amplitude
+
+
+def draw_code_errors(
+    gen: np.random.Generator, pulses: int, phase_deg: float, ripple_db: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Independent errors of ``pulses`` coded pulses: phase N(0, ``phase_deg``^2) (returned
+    in rad) and amplitude 10^(a / 20) with a ~ N(0, ``ripple_db``^2)."""
+    z = gen.standard_normal((2, pulses))
+    return np.deg2rad(phase_deg) * z[0], 10 ** (ripple_db * z[1] / 20)
 
 
 def cohere_first_trip(iq: np.ndarray, beams: xr.Dataset) -> np.ndarray:

@@ -22,8 +22,11 @@ trip's range (r < c T / 2), with x the received series:
    for the window; the strong trip's is the total less the weak's.
 4. Censoring: the weak trip is censored where the strong-to-weak power ratio exceeds
    ``max_power_ratio_db`` (beyond it the strong trip's leakage through the notch, set by its
-   width and the window's sidelobes, swamps the weak trip) or its SNR is below the Doppler
-   threshold. Each trip's moments go to its own range: trip 2's at r + c T / 2.
+   width and the window's sidelobes, swamps the weak trip), where its power is less than
+   ``min_weak_to_leakage_db`` above that leakage (plus, with ``code_leakage_db``, the white
+   leakage of the transmitter's code errors: scan.ppi ``phase_code_error_deg``), or where
+   its SNR is below the Doppler threshold. Each trip's moments go to its own range: trip
+   2's at r + c T / 2.
 
 Reflectivity, velocity and width are estimated on the H channel. In dual polarisation
 (the WSR-88D's SZ-2 takes them from the long-PRT surveillance scan instead), each trip's ZDR,
@@ -104,6 +107,7 @@ def separate_trips(
     wavelength_m: float,
     xv: np.ndarray | None = None,
     noise_v: np.ndarray | None = None,
+    code_leakage: float = 0.0,
 ) -> dict[str, np.ndarray]:
     """SZ-2 estimates of two overlaid trips from series ``x`` (gate x pulse) transmitted with
     phases ``psi`` (pulse, rad); ``noise_w`` per gate.
@@ -112,7 +116,9 @@ def separate_trips(
     and width (m/s) of that trip (``P1``, ``V1``, ``W1``, ``P2``, ...), the weak trip's width
     NaN where not estimated. With the V series ``xv`` (and its noise ``noise_v``), also each
     trip's ZDR (dB), rho_hv and phi_DP (deg) (``ZDR1``, ``RHOHV1``, ``PHIDP1``, ...; see
-    :func:`polarimetry`).
+    :func:`polarimetry`). ``code_leakage`` is the fraction of the strong trip's power that
+    the transmitter's code errors spread white over the spectrum (0: an ideal code); it is
+    added to the expected leakage through the notch.
     """
     m = x.shape[-1]
     c = [np.exp(-1j * psi), np.exp(-1j * np.roll(psi, 1))]  # cohere to trip 1, trip 2
@@ -146,6 +152,9 @@ def separate_trips(
     # the window), in units of the weak trip's power estimate.
     leak = np.interp(WIDTH_MARGIN * w_s, *leakage_table(win, prt_s, wavelength_m))
     leak /= 1 - NOTCH_FRACTION
+    if code_leakage:
+        # White: the notch passes 1/4 of it, as of the weak trip, so it counts in full.
+        leak = leak + code_leakage
     leak_w = leak * np.maximum(total, 0) / (1 + leak)
     p_w = kept / (1 - NOTCH_FRACTION) - noise_w - leak_w
     p_s = total - np.maximum(p_w, 0)
@@ -272,6 +281,17 @@ class SZ2Processor(MomentProcessor):
         "trip's)",
     )
 
+    code_leakage_db = Param(
+        None,
+        units="dB",
+        optional=True,
+        min=-120.0,
+        max=0.0,
+        doc="the strong trip's power the transmitter's code errors spread white, over its "
+        "own (about 10 log10 of the phase error's variance in rad^2: -41 dB for 0.5 deg "
+        "rms), counted in the weak trip's censoring; unset: an ideal code",
+    )
+
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         d = self.dwell(inputs, chunk)
         iq, noise, cal, beams = d.iq, d.noise, d.calibration, d.beams
@@ -300,11 +320,15 @@ class SZ2Processor(MomentProcessor):
         snr_power = np.full((n_b, n_g), np.nan)
         ratio_db = float(self.p["max_power_ratio_db"])
         margin_db = float(self.p["min_weak_to_leakage_db"])
+        floor_db = self.p["code_leakage_db"]
+        code_leakage = 0.0 if floor_db is None else 10 ** (float(floor_db) / 10)
         noise_h = np.array(noise[..., 0], dtype=np.float64)
         for i in range(n_b):
             x = iq[i, near, :, 0].astype(np.complex128)
             xv = iq[i, near, :, 1].astype(np.complex128) if dual else None
-            est = separate_trips(x, psi[i], noise[i, near, 0], prt, lam, xv, noise[i, near, 1])
+            est = separate_trips(
+                x, psi[i], noise[i, near, 0], prt, lam, xv, noise[i, near, 1], code_leakage
+            )
             too_weak = weak_censored(est, ratio_db, margin_db)
             with np.errstate(divide="ignore", invalid="ignore"):
                 weak_snr = 10 * np.log10(

@@ -30,7 +30,7 @@ class DopplerCut(Block):
         old_dwell = float(beams["prt"].values[0]) * int(beams["pulses"].values)
         beams["prt"] = ("beam", np.full(n, float(self.p["prt_s"])), dict(beams["prt"].attrs))
         beams["pulses"] = ((), int(self.p["pulses"]), dict(beams["pulses"].attrs))
-        for name in ("prt_ratio", "transmit_phase"):
+        for name in ("prt_ratio", "transmit_phase", "transmit_phase_error", "transmit_amplitude"):
             if name in beams:
                 beams = beams.drop_vars(name)
         if "scan_rate" in beams:

@@ -10,7 +10,7 @@ from pasim_graph import Chunk, Param
 from pasim_graph.scores import mean_prt
 
 from ..angles import circular_difference, nearest_radial
-from ..timing import STAGGERS, sz_code
+from ..timing import STAGGERS, draw_code_errors, sz_code
 from .beam_geometry import beam_dataset, seconds, site_and_start
 from .platform import PlatformParams, carry
 from .scan import DwellScan
@@ -55,6 +55,21 @@ class PPISector(PlatformParams, DwellScan):
         choices=("none", "sz8_64", "random"),
         doc="transmit phase code: none, SZ(8/64) (Sachidananda and Zrnic 1999), or random",
     )
+    phase_code_error_deg = Param(
+        0.0,
+        units="deg",
+        min=0.0,
+        max=45.0,
+        doc="rms error of each coded pulse's transmitted phase (independent per pulse; the "
+        "echoes carry it, the receiver decodes with the ideal code)",
+    )
+    phase_code_ripple_db = Param(
+        0.0,
+        units="dB",
+        min=0.0,
+        max=10.0,
+        doc="rms amplitude ripple of the coded pulses (independent per pulse)",
+    )
 
     @classmethod
     def check_config(cls, params: dict[str, Any], connected: set[str]) -> list[tuple[str, str]]:
@@ -72,6 +87,17 @@ class PPISector(PlatformParams, DwellScan):
                     "full circle give azimuth_start_deg 0 and azimuth_stop_deg 360",
                 )
             ]
+        if cls.given(params, "phase_code") == "none":
+            for name in ("phase_code_error_deg", "phase_code_ripple_db"):
+                value = cls.given(params, name)
+                if isinstance(value, (int, float)) and value != 0:
+                    return [
+                        (
+                            f"parameter '{name}'",
+                            "errors of a phase code need a phase code: set phase_code to "
+                            f"sz8_64 or random, or {name} to 0",
+                        )
+                    ]
         span = (stop - start) % 360.0 or 360.0
         if span < step * (1.0 - 1e-9):  # 0.7 to 1.7 deg is one 1-deg beam, not 0.99999...
             return [
@@ -100,6 +126,17 @@ class PPISector(PlatformParams, DwellScan):
         if self.p["phase_code"] == "sz8_64":
             return np.resize(sz_code(8, 64), m)
         return chunk.rng(beam).uniform(0.0, 2 * np.pi, m)
+
+    def _code_errors(self, chunk: Chunk, beams: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each beam's coded pulses' phase errors (rad) and amplitudes (beam x pulse), from
+        the beam's own sub-stream 1 (the same whatever the chunking; the random code's
+        stream 0 is not touched)."""
+        m, deg = int(self.p["pulses"]), self.p["phase_code_error_deg"]
+        drawn = [
+            draw_code_errors(chunk.rng(int(b), 1), m, deg, self.p["phase_code_ripple_db"])
+            for b in beams
+        ]
+        return np.stack([d[0] for d in drawn]), np.stack([d[1] for d in drawn])
 
     def nominal_azimuths(self) -> np.ndarray:
         step = self.p["beam_spacing_deg"]
@@ -147,6 +184,18 @@ class PPISector(PlatformParams, DwellScan):
                 np.stack([self._code(chunk, int(b)) for b in beams]),
                 {"units": "radians", "long_name": "transmit phase of each pulse"},
             )
+            if self.p["phase_code_error_deg"] > 0 or self.p["phase_code_ripple_db"] > 0:
+                error, amplitude = self._code_errors(chunk, beams)
+                ds["transmit_phase_error"] = (
+                    ("beam", "pulse"),
+                    error,
+                    {"units": "radians", "long_name": "error of each pulse's transmitted phase"},
+                )
+                ds["transmit_amplitude"] = (
+                    ("beam", "pulse"),
+                    amplitude,
+                    {"units": "1", "long_name": "voltage amplitude of each pulse over the nominal"},
+                )
         return {"beams": ds}
 
 

@@ -33,7 +33,7 @@ from ..signals import (
     SPEED_OF_LIGHT,
     TRUTH,
 )
-from ..timing import fine_grid, prt_ratio, transmit_phase
+from ..timing import code_errors, fine_grid, prt_ratio, transmit_phase
 from ..truth.volume import elevation_weights, is_volume
 from .beams import (
     BeamDraw,
@@ -585,7 +585,11 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
         r_a = SPEED_OF_LIGHT * prt / 2
         visible = rng_m < r_a if trips > 1 else np.ones(rng_m.size, bool)
         offsets = trip_offsets(pulses, prt, ratio, gate_m, trips)
-        folded = fold_trips(iq, offsets, visible, phase)
+        errors = code_errors(beams, pulses) if phase is not None else None
+        if errors is None:
+            folded = fold_trips(iq, offsets, visible, phase)
+        else:  # the echoes carry what was transmitted: the code with its errors
+            folded = fold_trips(iq, offsets, visible, phase + errors[0], errors[1])
         own = corr[..., 0].real
         other = overlaid_power(own, offsets, visible)
         with np.errstate(divide="ignore", invalid="ignore"):

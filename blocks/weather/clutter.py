@@ -38,7 +38,7 @@ from pasim_graph import Block, Chunk, Input, Output, Param
 
 from ..angles import circular_difference
 from ..signals import BEAMS, CALIBRATION, IQ, PATTERN, TRUTH
-from ..timing import prt_ratio, pulse_times, transmit_phase
+from ..timing import code_errors, prt_ratio, pulse_times, transmit_phase
 from .beams import azimuth_profile, cell_solid_angles
 
 #: Antennas whose beam moves with the dish during a dwell (pattern ``antenna`` attribute).
@@ -200,6 +200,7 @@ class GroundClutter(Block):
         prt = float(beams["prt"].values[0])
         times = pulse_times(prt, pulses, prt_ratio(beams))
         psi = transmit_phase(beams, pulses)
+        errors = code_errors(beams, pulses) if psi is not None else None
         rng_m = truth["range"].values
         az_truth = truth["azimuth"].values
         width_deg = float(truth.attrs["radial_width_deg"])
@@ -239,6 +240,8 @@ class GroundClutter(Block):
             z1 = _complex_normal(gen_h, (gates.size, pulses)) @ factor.T
             z2 = _complex_normal(gen_v, (gates.size, pulses)) @ factor.T
             code = np.exp(1j * psi[i]) if psi is not None else 1.0
+            if errors is not None and psi is not None:  # the echo carries what was sent
+                code = errors[1][i] * np.exp(1j * (psi[i] + errors[0][i]))
             h = np.sqrt(p_h[gates])[:, None] * z1 * code
             v = (
                 np.sqrt(p_v[gates])[:, None]

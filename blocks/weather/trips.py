@@ -8,7 +8,8 @@ radar-equation power, 1 / R^2 of its true range), and :func:`fold_trips` sums th
 apparent gates: a storm at 200 km seen with a 1 ms PRT (r_a = 150 km) appears at 50 km with
 its power at 200 km, i.e. 20 log10(200 / 50) = 12 dB below its reflectivity once calibrated
 for 50 km. Each echo carries the transmit phase of the pulse that made it (phase-coded
-scans). Gates at or beyond the unambiguous range c T1 / 2 hold no sample.
+scans), with that pulse's phase error and amplitude when the transmitter is not ideal.
+Gates at or beyond the unambiguous range c T1 / 2 hold no sample.
 """
 
 from __future__ import annotations
@@ -56,10 +57,12 @@ def fold_trips(
     offsets: np.ndarray,
     visible: np.ndarray,
     phase: np.ndarray | None,
+    amplitude: np.ndarray | None = None,
 ) -> np.ndarray:
     """Sum the trips of ``iq`` (beam x pol x gate x pulse, every truth gate as first-trip)
     onto the apparent gates ``visible`` (bool per gate); ``phase`` (beam x pulse, rad) is the
-    transmit phase of each pulse of the dwell, taken as periodic (None: no code)."""
+    transmit phase of each pulse of the dwell, taken as periodic (None: no code), and
+    ``amplitude`` (beam x pulse) its voltage amplitude over the nominal (None: 1)."""
     n_g, pulses = iq.shape[2:]
     out = np.zeros_like(iq)
     gates = np.flatnonzero(visible)
@@ -73,6 +76,8 @@ def fold_trips(
         if phase is not None:
             # Trip k + 1 at pulse m was sent by pulse m - k.
             part = part * np.exp(1j * np.roll(phase, k, axis=-1))[:, None, None, :].astype(iq.dtype)
+        if amplitude is not None:
+            part = part * np.roll(amplitude, k, axis=-1)[:, None, None, :].astype(part.real.dtype)
         out[:, :, gates] += part
     return out
 
