@@ -9,6 +9,7 @@ import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
+from ..propagation.rain import coefficients as path_coefficients
 from ..signals import MOMENTS, SCORES
 from .sweep_radar import (
     ALGORITHM_FIELDS,
@@ -32,7 +33,13 @@ class ZPhiAttenuation(Block):
     start at 0 by Py-ART's Vulpiani reconstruction (:func:`pyart.retrieve.kdp_vulpiani`),
     as an operational chain processes phi_DP before Z-PHI. The ideal answer is the truth's
     Z, which the weather channel attenuates on the way (propagation on,
-    docs/propagation.md): Z-PHI aims at the unattenuated reflectivity."""
+    docs/propagation.md): Z-PHI aims at the unattenuated reflectivity.
+
+    ``coefficients``: ``pyart`` takes Py-ART's coefficients of the radar's band (C band:
+    A_H = 0.08 KDP); ``propagation`` takes the weather channel's own power laws at
+    ``frequency_hz`` (:func:`pasim_blocks.propagation.rain.coefficients`: A_H = alpha KDP,
+    A_DP = beta KDP, so c = beta / alpha and d = 1), the Z-PHI consistent with the
+    attenuation the simulation applied; Z-PHI's exponent b stays Py-ART's."""
 
     sweep_level = True
 
@@ -45,6 +52,13 @@ class ZPhiAttenuation(Block):
     )
     freezing_level_m = Param(
         4000.0, units="m", min=0.0, max=20e3, doc="height of the freezing level above the site"
+    )
+
+    coefficients = Param(
+        "pyart",
+        type="str",
+        choices=("pyart", "propagation"),
+        doc="Z-PHI's alpha (A_H = alpha KDP): Py-ART's for the band, or the propagation path's",
     )
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
@@ -63,8 +77,18 @@ class ZPhiAttenuation(Block):
         )
         measured = np.isfinite(moments["PHIDP"].values)
         add_field(radar, "differential_phase", np.where(measured, filled(phidp), np.nan))
+        laws: dict[str, float] = {}
+        if self.p["coefficients"] == "propagation":
+            alpha, _, beta, _ = path_coefficients(float(self.p["frequency_hz"]))
+            # Z-PHI's exponent b of the band, from Py-ART's own table (it takes all four
+            # coefficients or none).
+            _, b, _, _ = pyart().correct.attenuation._get_param_attzphi(
+                float(self.p["frequency_hz"])
+            )
+            laws = {"a_coef": alpha, "beta": b, "c": beta / alpha, "d": 1.0}
         out = pyart().correct.calculate_attenuation_zphi(
             radar,
+            **laws,
             fzl=self.p["freezing_level_m"],
             temp_ref="fixed_fzl",
             refl_field="reflectivity",

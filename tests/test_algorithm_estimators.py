@@ -1,0 +1,67 @@
+"""Z-PHI with the propagation path's coefficients, and Schneebeli's KDP estimator, each alone
+on a small synthetic sweep whose right answer is known (docs/algorithms.md)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pasim_blocks.algorithms.attenuation import ZPhiAttenuation
+from pasim_blocks.algorithms.kdp import KdpEstimate
+from pasim_blocks.propagation.rain import coefficients
+
+from .test_algorithms import GATE_M, run, sweep
+
+
+def rain_cell(alpha: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A rain cell (KDP peaking at 1 deg/km, 5 km wide, at 15 km) seen at C band through a
+    path whose specific attenuation is ``alpha`` KDP: range (km), true Z, attenuated Z and
+    the two-way phi_DP. Z follows Z-PHI's A_H ~ Z^b (b = 0.649, Py-ART's C band)."""
+    x_km = GATE_M * np.arange(200) / 1e3
+    kdp = np.exp(-(((x_km - 15.0) / 5.0) ** 2))
+    true_z = np.broadcast_to(np.maximum(45.0 + 10 / 0.64884 * np.log10(kdp), -10.0), (6, 200))
+    path = 2.0 * np.cumsum(kdp) * GATE_M / 1e3  # two-way phase (deg)
+    return x_km, true_z, true_z - alpha * path, np.broadcast_to(path, (6, 200))
+
+
+@pytest.mark.parametrize("coefficients_", ["propagation", "pyart"])
+def test_zphi_with_the_paths_alpha_undoes_the_paths_attenuation(coefficients_):
+    """The cell attenuated with the propagation path's alpha at 5.6 GHz (0.07 dB/deg,
+    pasim_blocks.propagation.rain): behind it the loss is 2 alpha int KDP dr = 1.24 dB.
+    Z-PHI with ``coefficients: propagation`` gives the true Z back within 0.1 dB; with
+    Py-ART's C-band alpha (0.08) it over-corrects by (0.08 - alpha) times the phase there,
+    0.18 dB (theory: Z-PHI's path-integrated attenuation at the ray's end is alpha times
+    the phase)."""
+    alpha = coefficients(5.6e9)[0]
+    assert alpha == pytest.approx(0.07)
+    x_km, true_z, attenuated, phidp = rain_cell(alpha)
+    zeros = np.zeros((6, 200))
+    moments, scores = sweep(6, DBZH=attenuated, PHIDP=phidp, ZDR=zeros, truth_DBZH=true_z)
+    block = ZPhiAttenuation("z", frequency_hz=5.6e9, coefficients=coefficients_)
+    out = run(block, moments, scores)
+    behind = (x_km > 28.0) & (x_km < 40.0)
+    phase = 2 * 5 * np.sqrt(np.pi)  # two-way phase behind the cell (deg): 17.7
+    assert np.mean((true_z - attenuated)[:, behind]) == pytest.approx(alpha * phase, abs=0.01)
+    error = float(np.nanmean(out["error_DBZH_ZPHI"].values[:, behind]))
+    expected = 0.0 if coefficients_ == "propagation" else (0.08 - alpha) * phase
+    assert error == pytest.approx(expected, abs=0.1)
+
+
+@pytest.mark.slow  # four runs of Schneebeli's filter: about 16 s on 2 busy cores
+def test_schneebeli_kdp_of_a_linear_phidp_repeats_itself():
+    """phi_DP rising 2 deg/km: Schneebeli's Kalman-filter ensemble gives KDP = 1 deg/km
+    (theory: half the slope) away from the ray's ends. Its filter draws from NumPy's global
+    random state: the block seeds it, so a second call gives the same KDP to the bit, and the
+    caller's random state is left as it was."""
+    r_km = (2000.0 + GATE_M * np.arange(120)) / 1e3
+    phidp = np.broadcast_to(2.0 * (r_km - r_km[0]), (3, 120)).copy()
+    moments, scores = sweep(3, 120, PHIDP=phidp, truth_PHIDP=phidp)
+    block = KdpEstimate("k", method="schneebeli", frequency_hz=5.6e9, truth_frequency_hz=5.6e9)
+    np.random.seed(7)  # noqa: NPY002 (the global state the block must leave alone)
+    before = np.random.get_state()[1].copy()  # noqa: NPY002
+    first = run(block, moments, scores)
+    assert np.array_equal(np.random.get_state()[1], before)  # noqa: NPY002
+    second = run(block, moments, scores)
+    kdp = first["KDP_SCHNEEBELI"].values
+    assert np.array_equal(kdp, second["KDP_SCHNEEBELI"].values, equal_nan=True)
+    assert np.median(kdp[:, 20:-20]) == pytest.approx(1.0, abs=0.1)
+    assert np.nanmax(np.abs(first["error_KDP_SCHNEEBELI"].values)) < 1e-5
