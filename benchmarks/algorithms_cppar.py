@@ -3,10 +3,11 @@
     python benchmarks/algorithms_cppar.py [WORKDIR]
 
 runs graphs/zphi_cppar10_cband.yaml (seed 0) with Z-PHI's alpha from the propagation path
-and from Py-ART, with the gases off, and at the expected level (no estimator noise) with the
-path on and off; then graphs/algorithms_cband.yaml on 297-303 deg with Schneebeli's KDP
-beside Maesaka's. Runs are kept in WORKDIR (default ./algorithms-cppar-runs), so a second
-call only measures and draws; writes docs/algorithms_zphi_cppar.png and prints the numbers.
+and from Py-ART, with the gases off, at the expected level (no estimator noise) with the
+path on and off, and with Z-PHI's rho_hv gate filter at 0.8; then
+graphs/algorithms_cband.yaml on 297-303 deg with Schneebeli's KDP beside Maesaka's. Runs
+are kept in WORKDIR (default ./algorithms-cppar-runs), so a second call only measures and
+draws; writes docs/algorithms_zphi_cppar.png and prints the numbers.
 """
 
 from __future__ import annotations
@@ -41,6 +42,18 @@ RUNS = {
     "expected_off": (
         GRAPH,
         ["--set", "weather.propagation=off", "--set", "weather.method=expected"],
+    ),
+    "rhohv08": (GRAPH, ["--set", "zphi.min_rhohv=0.8"]),
+    "expected_on_rhohv08": (
+        GRAPH,
+        [
+            "--set",
+            "zphi.min_rhohv=0.8",
+            "--set",
+            "weather.gaseous_attenuation=false",
+            "--set",
+            "weather.method=expected",
+        ],
     ),
     "schneebeli": (
         ROOT / "graphs" / "algorithms_cband.yaml",
@@ -105,7 +118,15 @@ def main() -> None:
     work = Path(sys.argv[1] if len(sys.argv) > 1 else "algorithms-cppar-runs")
     work.mkdir(exist_ok=True)
     s = {name: run(work, name) for name in RUNS}
-    for name in ("propagation", "pyart", "no_gases", "expected_on", "expected_off"):
+    for name in (
+        "propagation",
+        "pyart",
+        "no_gases",
+        "expected_on",
+        "expected_off",
+        "rhohv08",
+        "expected_on_rhohv08",
+    ):
         print(f"{name}: DBZH {scored(s[name], 'DBZH')}; Z-PHI {scored(s[name], 'DBZH_ZPHI')}")
     print(f"propagation: KDP_VULPIANI {scored(s['propagation'], 'KDP_VULPIANI')}")
     for name in ("KDP_VULPIANI", "KDP_MAESAKA", "KDP_SCHNEEBELI"):
@@ -133,6 +154,12 @@ def main() -> None:
         )
         mids.append(loss[m].mean())
         means.append(pia[m].mean())
+    filtered = s["expected_on_rhohv08"]["DBZH_ZPHI"].values - zon
+    kept = ok & np.isfinite(filtered)
+    print(
+        f"min_rhohv 0.8, expected level: {kept.sum()} gates, path loss "
+        f"{loss[kept].mean():.2f} dB, Z-PHI {filtered[kept].mean():.2f} dB"
+    )
     (end_on, added_on), (end_off, _) = ray_end_phase(on, extra), ray_end_phase(off, extra)
     print(
         f"ray ends: Vulpiani phase on {end_on:.1f} deg, off {end_off:.1f} deg; the phase the "

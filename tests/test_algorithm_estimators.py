@@ -65,3 +65,37 @@ def test_schneebeli_kdp_of_a_linear_phidp_repeats_itself():
     assert np.array_equal(kdp, second["KDP_SCHNEEBELI"].values, equal_nan=True)
     assert np.median(kdp[:, 20:-20]) == pytest.approx(1.0, abs=0.1)
     assert np.nanmax(np.abs(first["error_KDP_SCHNEEBELI"].values)) < 1e-5
+
+
+def test_a_rhohv_gate_filter_keeps_a_weak_far_echos_phase_out_of_zphi():
+    """The rain cell attenuated with the path's alpha, then weak echo (5 dBZ) at 42-50 km
+    whose phi_DP climbs 20 deg that are not propagation (noise of weak echo: rho_hv 0.6
+    there, 0.99 in the rain). Z-PHI fixes a ray's attenuation at alpha times its end phase,
+    so without a filter the climb (0.07 x 20 = 1.4 dB at the end) over-corrects the cell's
+    shadow by more than 0.5 dB; with ``min_rhohv: 0.8`` those gates are left out and the true
+    Z is given back within 0.1 dB (as without the climb), and the gates left out have no
+    corrected Z."""
+    alpha = coefficients(5.6e9)[0]
+    x_km, true_z, attenuated, phidp = rain_cell(alpha)
+    weak = x_km >= 42.0
+    true_z, attenuated, phidp = true_z.copy(), attenuated.copy(), phidp.copy()
+    true_z[:, weak] = 5.0
+    attenuated[:, weak] = 5.0 - phidp[:, weak] * alpha
+    phidp[:, weak] += 20.0 * (x_km[weak] - 42.0) / 8.0
+    rhohv = np.where(weak, 0.6, 0.99) * np.ones((6, 1))
+    zeros = np.zeros((6, 200))
+    moments, scores = sweep(
+        6, DBZH=attenuated, PHIDP=phidp, ZDR=zeros, RHOHV=rhohv, truth_DBZH=true_z
+    )
+    behind = (x_km > 28.0) & (x_km < 40.0)
+    errors = {}
+    for threshold in (None, 0.8):
+        block = ZPhiAttenuation(
+            "z", frequency_hz=5.6e9, coefficients="propagation", min_rhohv=threshold
+        )
+        out = run(block, moments, scores)
+        errors[threshold] = float(np.nanmean(out["error_DBZH_ZPHI"].values[:, behind]))
+        if threshold is not None:
+            assert np.isnan(out["DBZH_ZPHI"].values[:, weak]).all()
+    assert errors[None] > 0.5
+    assert errors[0.8] == pytest.approx(0.0, abs=0.1)
