@@ -4,7 +4,8 @@
 
 runs graphs/zphi_cppar10_cband.yaml (seed 0) with Z-PHI's alpha from the propagation path
 and from Py-ART, with the gases off, at the expected level (no estimator noise) with the
-path on and off, and with Z-PHI's rho_hv gate filter at 0.8; then
+path on and off, and with Z-PHI's rho_hv gate filter at 0.8; graphs/algorithms_cband.yaml
+(the generic radar) with the path's alpha, without and with the filter; then
 graphs/algorithms_cband.yaml on 297-303 deg with Schneebeli's KDP beside Maesaka's. Runs
 are kept in WORKDIR (default ./algorithms-cppar-runs), so a second call only measures and
 draws; writes docs/algorithms_zphi_cppar.png and prints the numbers.
@@ -54,6 +55,14 @@ RUNS = {
             "--set",
             "weather.method=expected",
         ],
+    ),
+    "generic_propagation": (
+        ROOT / "graphs" / "algorithms_cband.yaml",
+        ["--set", "zphi.coefficients=propagation"],
+    ),
+    "generic_rhohv08": (
+        ROOT / "graphs" / "algorithms_cband.yaml",
+        ["--set", "zphi.coefficients=propagation", "--set", "zphi.min_rhohv=0.8"],
     ),
     "schneebeli": (
         ROOT / "graphs" / "algorithms_cband.yaml",
@@ -126,6 +135,8 @@ def main() -> None:
         "expected_off",
         "rhohv08",
         "expected_on_rhohv08",
+        "generic_propagation",
+        "generic_rhohv08",
     ):
         print(f"{name}: DBZH {scored(s[name], 'DBZH')}; Z-PHI {scored(s[name], 'DBZH_ZPHI')}")
     print(f"propagation: KDP_VULPIANI {scored(s['propagation'], 'KDP_VULPIANI')}")
