@@ -99,3 +99,37 @@ def test_a_rhohv_gate_filter_keeps_a_weak_far_echos_phase_out_of_zphi():
             assert np.isnan(out["DBZH_ZPHI"].values[:, weak]).all()
     assert errors[None] > 0.5
     assert errors[0.8] == pytest.approx(0.0, abs=0.1)
+
+
+def kdp_rows_in_the_docs() -> dict[str, tuple[float, float]]:
+    """Bias and std of each estimator of docs/algorithms.md's 297-303 deg table."""
+    from .conftest import ROOT
+
+    text = (ROOT / "docs" / "algorithms.md").read_text()
+    table = text[text.index("| estimator, 297-303 deg") :].split("\n\n", 1)[0].splitlines()[2:]
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in table]
+    return {r[0].upper(): (float(r[1]), float(r[2])) for r in rows}
+
+
+@pytest.mark.slow  # Schneebeli on 6 beams of the storm: 100-160 s on 2 busy cores
+def test_schneebeli_beside_maesaka_on_the_storm(capsys, tmp_path):
+    """docs/algorithms.md's Schneebeli and Maesaka rows on 297-303 deg of
+    graphs/algorithms_cband.yaml: each estimate minus its ideal answer (the same estimator on
+    the truth's phi_DP, stored beside it), computed here on the scored gates, is the docs'
+    bias and std to their two decimals."""
+    import xarray as xr
+
+    from .conftest import GRAPHS, pasim_out
+
+    out = tmp_path / "kdp.zarr"
+    graph = str(GRAPHS / "algorithms_cband.yaml")
+    more = ["--sector", "297:303", "--set", "kdp.method=schneebeli"]
+    code, _, err = pasim_out(capsys, "run", graph, "--out", str(out), *more)
+    assert code == 0, err
+    s = xr.open_datatree(out, engine="zarr")["sweep_0"].to_dataset()
+    gates = s["scored"].values.astype(bool)
+    docs = kdp_rows_in_the_docs()
+    for method in ("MAESAKA", "SCHNEEBELI"):
+        d = s[f"KDP_{method}"].values.astype(np.float64) - s[f"ideal_KDP_{method}"].values
+        x = d[gates & np.isfinite(d)]
+        assert (round(float(x.mean()), 2), round(float(x.std(ddof=1)), 2)) == docs[method]
