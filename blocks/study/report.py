@@ -71,6 +71,7 @@ class CaseReport:
     name: str
     points: list[str]
     table: list[dict[str, Any]] = field(default_factory=list)
+    products: list[dict[str, Any]] = field(default_factory=list)
     rankings: list[dict[str, Any]] = field(default_factory=list)
     budget_rows: list[dict[str, Any]] = field(default_factory=list)
     calibration_rows: list[dict[str, Any]] = field(default_factory=list)
@@ -133,10 +134,26 @@ def _systems(scores: dict[str, Any]) -> list[str]:
     return [k for k in scores if not k.startswith("_")]
 
 
-def _summary(scores: dict[str, Any], systems: list[str], case: str) -> list[dict[str, Any]]:
-    """One row per moment and system point: every number of the summary table."""
+def _products(scores: dict[str, Any], systems: list[str], case: str) -> list[str]:
+    """The algorithm products any system of the case scored (``algorithm.*`` blocks), in the
+    order of their first appearance."""
+    names: dict[str, None] = {}
+    for system in systems:
+        for fields in scores[system].get(case, {}).values():
+            names.update({n: None for n, s in fields.items() if s.get("product")})
+    return list(names)
+
+
+def _summary(
+    scores: dict[str, Any],
+    systems: list[str],
+    case: str,
+    names: tuple[str, ...] | list[str] = FIELDS,
+) -> list[dict[str, Any]]:
+    """One row per moment (or ``names``) and system point: every number of the summary
+    table."""
     rows = []
-    for name in FIELDS:
+    for name in names:
         cells = []
         req = None
         for system in systems:
@@ -481,6 +498,7 @@ def build(out: Path) -> dict[str, Any]:
     for case, rep in cases.items():
         rep.truth = case_truth_text(meta.get("cases", {}).get(case))
         rep.table = _summary(scores, systems, case)
+        rep.products = _summary(scores, systems, case, _products(scores, systems, case))
         rep.rankings = _rankings(scores, case)
         rep.budget_rows = _budget_rows(scores, systems, case)
         fig = budget_figure(scores, systems, case)

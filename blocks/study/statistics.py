@@ -9,11 +9,18 @@ with one seed) and the scene interval (another stretch of weather: a block boots
 whole beams in blocks of about three beamwidths; neighbouring gates and beams are correlated,
 so a naive standard error would be far too small). Rankings compare systems in pairs, through
 the per-beam difference of their statistics on the gates both scored.
+
+A system whose graph carries algorithm blocks (``algorithm.*``, docs/algorithms.md) stores
+each product's error against the same algorithm's answer from the truth (``error_KDP_VULPIANI``
+...): those products get the same statistics and intervals as the moments, against the raw
+truth (the ideal answer), the reference's and the own expected level, on own and common gates,
+listed after the moments; rankings and pairs stay the moments'.
 """
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 import math
@@ -53,6 +60,9 @@ class Errors:
     periods: dict[str, float]
     requirements: dict[str, tuple[float, float]]
     units: dict[str, str]
+    #: The algorithm products among ``fields`` (stored errors that are not moments), in
+    #: the store's order.
+    products: list[str] = dataclasses.field(default_factory=list)
 
     def same_grid(self, other: Errors) -> bool:
         return (
@@ -85,6 +95,15 @@ def read_errors(path: str | Path) -> Errors:
             periods[name] = float(var.attrs["period"])
         reqs[name] = (float(var.attrs["requirement_bias"]), float(var.attrs["requirement_std"]))
         units[name] = str(var.attrs.get("units", ""))
+    products = []
+    for key, var in sweep.data_vars.items():
+        name = str(key).removeprefix("error_")
+        if name == key or name in FIELDS or var.attrs.get("pasim_role") != "error":
+            continue
+        fields[name] = np.asarray(var.values, dtype=np.float64)
+        reqs[name] = (float(var.attrs["requirement_bias"]), float(var.attrs["requirement_std"]))
+        units[name] = str(var.attrs.get("units", ""))
+        products.append(name)
     return Errors(
         np.asarray(sweep[dim].values, dtype=np.float64),
         np.asarray(sweep["range"].values, dtype=np.float64),
@@ -92,7 +111,13 @@ def read_errors(path: str | Path) -> Errors:
         periods,
         reqs,
         units,
+        products,
     )
+
+
+def scored_names(errors: Errors) -> tuple[str, ...]:
+    """The moments, then the algorithm products, in the order a study scores them."""
+    return (*FIELDS, *errors.products)
 
 
 def wrap(d: np.ndarray, period: float | None) -> np.ndarray:
@@ -307,7 +332,7 @@ def score_study(
         complete = all(e is not None for _, e in loaded)
         for seed in study.seeds:
             group = [e for r, e in loaded if r.seed == seed and e is not None]
-            for name in FIELDS:
+            for name in scored_names(group[0]) if group else FIELDS:
                 if not complete or not group or any(name not in e.fields for e in group):
                     common[(seed, name)] = None
                     continue
@@ -414,7 +439,7 @@ def _score_point(
         notes.append(f"reference system {study.reference} has no unswept run: no reference")
     block = _block_beams(est[0].azimuth, beamwidths.get(f"{system}/{case}/{point}"))
     out: dict[str, Any] = {}
-    for name in FIELDS:
+    for name in scored_names(est[0]):
         if name not in est[0].fields:
             continue
         period = est[0].periods.get(name)
@@ -428,6 +453,8 @@ def _score_point(
         )
 
         entry = statistics(e, block, req, noise)
+        if name in est[0].products:
+            entry["product"] = "algorithm: error against the same algorithm on the truth"
         entry["units"] = est[0].units.get(name, "")
         entry["requirement_bias"], entry["requirement_std"] = req
         entry["reference"] = _against(est, name, period, block, req, ref, noise=noise)
