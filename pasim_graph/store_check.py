@@ -7,6 +7,7 @@ import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 
 class NotAStoreError(ValueError):
@@ -167,15 +168,55 @@ def check_chunks(path: str | Path) -> list[Damage]:
             (names.index(d) for d in ("azimuth", "elevation", "time") if d in names), None
         )
         grid = [-(-n // c) for n, c in zip(arr.shape, arr.chunks, strict=True)]
+        missing = set()
         for idx in itertools.product(*(range(g) for g in grid)):
-            chunk_file = meta_path.parent.joinpath("c", *map(str, idx))
-            if not chunk_file.is_file():
+            if not meta_path.parent.joinpath("c", *map(str, idx)).is_file():
+                missing.add(idx)
                 out.append(Damage(node, idx, "missing", beam_axis))
+        out += _unreadable_chunks(arr, node, grid, missing, beam_axis)
+    return out
+
+
+#: Bytes of chunks read at once when a store is checked: zarr reads a slab's chunks together
+#: (one call, not one per chunk), and a run of any size is checked in bounded memory.
+CHECK_SLAB_BYTES = 64 << 20
+
+
+def _unreadable_chunks(
+    arr: Any, node: str, grid: list[int], missing: set[tuple[int, ...]], beam_axis: int | None
+) -> list[Damage]:
+    """The chunks of ``arr`` that cannot be read (checksum, codec), slab by slab along its
+    first axis; a slab that fails is read again chunk by chunk to name the damaged ones."""
+    import itertools
+    import math
+
+    if not grid:  # a scalar: one chunk
+        grid_rest, rows = [], 1
+    else:
+        grid_rest = grid[1:]
+        row_bytes = math.prod(arr.chunks) * arr.dtype.itemsize * math.prod(grid_rest)
+        rows = max(1, CHECK_SLAB_BYTES // max(row_bytes, 1))
+    out: list[Damage] = []
+    first = grid[0] if grid else 1
+    for start in range(0, first, rows):
+        stop = min(first, start + rows)
+        try:
+            if grid:
+                arr.blocks[start:stop]
+            else:
+                arr[...]
+            continue
+        except Exception:
+            pass
+        for idx in itertools.product(range(start, stop), *(range(g) for g in grid_rest)):
+            idx = idx[: len(grid)]
+            if idx in missing:
                 continue
             try:
                 arr.get_block_selection(idx)
             except Exception as exc:
                 out.append(Damage(node, idx, f"unreadable: {_short(exc)}", beam_axis))
+    return out
     return out
 
 

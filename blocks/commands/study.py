@@ -11,7 +11,12 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from pathlib import Path
+
+#: Seconds between two writings of scores.json while a study runs (it is always written at
+#: the end, and when the study is stopped).
+RESCORE_EVERY_S = 60.0
 
 
 def _problems_class() -> type:
@@ -138,6 +143,13 @@ class StudyCommand:
                 study, runs, out, state["beamwidths"], state.get("patterns", {}), read
             )
             write_scores(out, latest["scores"])
+            latest["at"] = time.monotonic()
+
+        def after_run() -> None:
+            # scores.json follows a long study along, at most once a minute: scoring every
+            # finished run again after each one cost a small study more than its runs.
+            if time.monotonic() - latest.get("at", started) >= RESCORE_EVERY_S:
+                rescore()
 
         def warn_unscored() -> None:
             # A system none of whose cases was scored is named, not left out of the tables
@@ -151,6 +163,7 @@ class StudyCommand:
                 print(f"warning: {line}", file=sys.stderr)
 
         print(f"study {args.study}: {len(runs)} runs into {out}", file=sys.stderr)
+        started = time.monotonic()
         try:
             with stop_on_signals():
                 report = execute(
@@ -161,7 +174,7 @@ class StudyCommand:
                     workers=args.workers,
                     scheduler=args.scheduler,
                     progress=args.progress,
-                    after_run=rescore,
+                    after_run=after_run,
                 )
         except Stopped as exc:
             warn_unscored()
