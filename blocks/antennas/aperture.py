@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 from numpy.typing import NDArray
-from scipy import optimize, special
 
 from .hermite import hermite_eval, hermite_table
 
@@ -54,6 +53,10 @@ def circular_aperture_pattern(u: npt.ArrayLike, taper_exponent: float) -> NDArra
     us2 = x[small] ** 2
     out[small] = 1.0 - us2 / (4.0 * (nu + 1.0)) + us2**2 / (32.0 * (nu + 1.0) * (nu + 2.0))
     ul = x[~small]
+    # scipy is imported where it is used, here and below: at the top, every command that
+    # only reads a graph (validate, blocks, --help) paid for importing it.
+    from scipy import special
+
     out[~small] = np.exp(special.gammaln(nu + 1.0) + nu * np.log(2.0 / ul)) * special.jv(nu, ul)
     return out
 
@@ -61,6 +64,8 @@ def circular_aperture_pattern(u: npt.ArrayLike, taper_exponent: float) -> NDArra
 def _first_bessel_zero(order: float) -> float:
     """First positive zero of J_order for real order >= 0 (scipy only tabulates integer orders)."""
     # j_{nu,1} lies in (nu, nu + 20) for every order the designer can reach (nu <= 23).
+    from scipy import optimize, special
+
     x = order + 0.05 * np.arange(1, 401)
     negative = np.flatnonzero(special.jv(order, x) < 0)
     if negative.size == 0:
@@ -79,6 +84,8 @@ def _aperture_sidelobe_db(taper_exponent: float) -> float:
 
 def _aperture_half_power_u(taper_exponent: float) -> float:
     """Pattern variable u at which the one-way power pattern is 0.5 (inside the main lobe)."""
+    from scipy import optimize
+
     u_null = _first_bessel_zero(taper_exponent + 1.0)
     return float(
         optimize.brentq(
@@ -183,6 +190,8 @@ class PencilBeam:
         if first_sidelobe_db == highest:
             p = 0.0
         else:
+            from scipy import optimize
+
             p = float(
                 optimize.brentq(
                     lambda q: _aperture_sidelobe_db(q) - first_sidelobe_db,

@@ -7,7 +7,6 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 from numpy.typing import NDArray
-from scipy import signal
 
 from ..signals import SPEED_OF_LIGHT
 from .geometry import face_direction_cosines
@@ -54,8 +53,12 @@ def taylor_taper(n: int, sll_db: float, nbar: int) -> NDArray[np.float64]:
     ndarray
         Real, symmetric weights.
     """
+    # scipy.signal is imported where it is used: at the top, every command that only reads
+    # a graph (validate, blocks, --help) paid for importing it.
+    from scipy.signal import windows
+
     return np.asarray(
-        signal.windows.taylor(n, nbar=nbar, sll=abs(sll_db), norm=True, sym=True), dtype=float
+        windows.taylor(n, nbar=nbar, sll=abs(sll_db), norm=True, sym=True), dtype=float
     )
 
 
@@ -77,7 +80,9 @@ def design_taper(
     if kind == "taylor":
         return taylor_taper(n, sll_db, nbar)
     if kind == "kaiser":
-        w = signal.windows.kaiser(n, beta, sym=True)
+        from scipy.signal import windows
+
+        w = windows.kaiser(n, beta, sym=True)
         return np.asarray(w / w.max(), dtype=float)
     if kind == "uniform":
         return np.ones(n)

@@ -13,7 +13,6 @@ GHz.
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate import cumulative_trapezoid
 
 EARTH_RADIUS_M = 6_371_000.0
 #: Effective earth radius factor of the standard refraction model.
@@ -59,4 +58,6 @@ def two_way_gas_db(
     r = np.concatenate([[0.0], np.asarray(range_m, np.float64)])
     h = altitude_m + beam_height_m(r, elevation_deg)
     gamma = oxygen * np.exp(-h / OXYGEN_HEIGHT_M) + vapour * np.exp(-h / VAPOUR_HEIGHT_M)
+    from scipy.integrate import cumulative_trapezoid  # (imported late: see rain.py)
+
     return 2 * cumulative_trapezoid(gamma, r / 1e3)

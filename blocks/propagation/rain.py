@@ -35,8 +35,6 @@ squall line, measured).
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import median_filter, uniform_filter1d
-from scipy.signal import savgol_filter
 
 #: Power laws of rain at each band's table frequency: (frequency Hz, alpha dB/deg, b,
 #: beta dB/deg, d); A_H = alpha KDP^b, A_DP = beta KDP^d with KDP in deg/km at that frequency.
@@ -113,6 +111,11 @@ def kdp_from_phidp(
     # PHIDP is reported modulo 360 deg: a step of more than 180 deg between neighbours is a
     # wrap, not propagation (rain adds a few degrees per gate at most).
     filled = np.unwrap(filled, period=360.0, axis=1)
+    # scipy is imported where it is used: importing it at the top made every command that
+    # only reads a graph (validate, blocks, --help) pay for it.
+    from scipy.ndimage import median_filter
+    from scipy.signal import savgol_filter
+
     # The median removes isolated spikes (clutter, second trips) the slope would spread.
     filled = median_filter(filled, size=(1, max(3, window // 4 * 2 + 1)), mode="nearest")
     smooth = savgol_filter(filled, window, 1, axis=1, mode="nearest")
@@ -127,6 +130,8 @@ def texture(phidp_deg: np.ndarray, usable: np.ndarray) -> np.ndarray:
     where fewer than half the window's gates are usable)."""
     w = usable.astype(np.float64)
     x = np.where(usable, phidp_deg, 0.0)
+    from scipy.ndimage import uniform_filter1d
+
     count = uniform_filter1d(w, TEXTURE_GATES, axis=1, mode="constant") * TEXTURE_GATES
     mean = uniform_filter1d(x, TEXTURE_GATES, axis=1, mode="constant") * TEXTURE_GATES
     square = uniform_filter1d(x**2, TEXTURE_GATES, axis=1, mode="constant") * TEXTURE_GATES
