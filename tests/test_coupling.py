@@ -257,6 +257,9 @@ def test_pattern_output_carries_the_coupling(tmp_path) -> None:
     np.testing.assert_allclose(change, direct, atol=0.05)
 
 
+# Three `pasim pattern` processes on an 80 x 80 face (45 s): the channel reading the coupling
+# is checked in the default suite (test_weather_channel_reads_the_coupling), this with -m slow.
+@pytest.mark.slow
 def test_pasim_pattern_shows_the_coupling(tmp_path) -> None:
     """``pasim pattern --set antenna.coupling=...`` on the planar radar (80 x 80) steered 45
     deg: the peak gain moves with a coupling file, and with the model by the model's few

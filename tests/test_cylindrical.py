@@ -275,6 +275,9 @@ def test_check_config() -> None:
 # ---- end to end -------------------------------------------------------------------------------
 
 
+# 30 s: the 10 m CPPAR's graph is run on two beams in the default suite
+# (tests/test_port_schemas.py's fingerprints); its whole sector with -m slow.
+@pytest.mark.slow
 def test_cppar10_graph_runs_and_scores(tmp_path) -> None:
     out = tmp_path / "cppar.zarr"
     graph = str(GRAPHS / "cppar10_radar.yaml")

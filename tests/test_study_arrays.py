@@ -23,6 +23,11 @@ from .test_study_report import open_in_chromium
 
 FIX = Path(__file__).parent / "fixtures" / "study"
 STUDY = FIX / "array_study.yaml"
+
+# The study behind every test here is 17 runs (about 160 s on the 2-core machine): -m slow.
+# The calibration and phase-bit physics it rests on are checked in the default suite
+# (per-beam calibration: tests/test_elements.py; phase-shifter bits: tests/test_electronics.py).
+pytestmark = pytest.mark.slow
 FACE_DEG = 285.0  # small_planar.yaml's face_azimuth_deg
 
 

@@ -173,6 +173,9 @@ def wait_for_runs(manifest: Path, proc: subprocess.Popen, n: int) -> None:
         time.sleep(0.05)
 
 
+# Two tiny studies in fresh processes (50 s): the stop-and-resume path is checked in the
+# default suite with SIGTERM (below); kill -9 with -m slow.
+@pytest.mark.slow
 def test_kill_9_mid_study_then_resume(tmp_path, study):
     out = tmp_path / "out"
     # (scores only: the report is tests/test_study_report.py's subject)
@@ -346,6 +349,9 @@ IN_FLIGHT_LIMIT_S = 480
 IN_FLIGHT = 4
 
 
+# A two-worker cluster and the tiny study (80 s), with -m slow: the executor's chunks on a
+# cluster are checked in the default suite (tests/test_distributed_faults.py).
+@pytest.mark.slow
 def test_a_study_with_every_run_in_flight_is_the_serial_study(tmp_path, study):
     """--workers 2 with 4 of the 8 runs in flight at once on the study's one cluster and client:
     every store holds the values the serial study's holds, bit for bit, and scores.json is
