@@ -4,6 +4,7 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from typing import NamedTuple
 
 import pytest
 
@@ -60,6 +61,22 @@ def pasim_out(capsys, *argv: str) -> tuple[int, str, str]:
         code = exc.code
     out = capsys.readouterr()
     return code, out.out, out.err
+
+
+class Result(NamedTuple):
+    """What :func:`pasim_result` gives: run_cli's fields."""
+
+    returncode: int
+    stdout: str
+    stderr: str
+
+
+def pasim_result(capsys, *argv: str) -> Result:
+    """``pasim ARGV`` in this process, with :func:`run_cli`'s fields: for checks of a
+    command's exit code and words (an uncaught exception fails the test as a traceback would
+    fail it). :func:`run_cli` stays where the process itself is the subject: signals, the
+    environment, plugins installed for it, the interpreter's exit."""
+    return Result(*pasim_out(capsys, *argv))
 
 
 def same_sweep(a, b) -> None:

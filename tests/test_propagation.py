@@ -48,7 +48,7 @@ from scipy.special import erf
 from pasim_graph import cli, executor
 from pasim_graph.executor import LocalExecutor, RunOptions
 
-from .conftest import GRAPHS, run_cli
+from .conftest import GRAPHS, pasim_out, run_cli
 
 GRAPH = GRAPHS / "cppar10_cband.yaml"
 #: A few degrees across the squall line west-north-west of KLBB.
@@ -317,13 +317,14 @@ def test_coefficients_follow_the_stated_rule():
         coefficients(1.3e9)
 
 
-def test_the_run_says_once_that_propagation_is_on(tmp_path):
+def test_the_run_says_once_that_propagation_is_on(tmp_path, capsys):
     """Two chunks, each of which applies the path: the note is printed once; off, never."""
     base = ["run", str(GRAPH), "--sector", "300:302", "--chunk", "1"]
     base += ["--set", "weather.method=expected"]
-    on = run_cli(*base, "--out", str(tmp_path / "on.zarr"))
-    assert on.returncode == 0, on.stderr
-    assert on.stderr.count("note: weather: propagation on at 5.6 GHz") == 1, on.stderr
-    off = run_cli(*base, "--set", "weather.propagation=off", "--out", str(tmp_path / "off.zarr"))
-    assert off.returncode == 0, off.stderr
-    assert "propagation on" not in off.stderr
+    code, _, err = pasim_out(capsys, *base, "--out", str(tmp_path / "on.zarr"))
+    assert code == 0, err
+    assert err.count("note: weather: propagation on at 5.6 GHz") == 1, err
+    off = [*base, "--set", "weather.propagation=off", "--out", str(tmp_path / "off.zarr")]
+    code, _, err = pasim_out(capsys, *off)
+    assert code == 0, err
+    assert "propagation on" not in err

@@ -10,7 +10,7 @@ from pasim_graph import GraphError, load
 from pasim_graph.graph import validate
 from pasim_graph.graphfile import parse
 
-from .conftest import FIXTURES, GRAPHS, run_cli
+from .conftest import FIXTURES, GRAPHS, pasim_result, run_cli
 
 BROKEN = FIXTURES / "broken"
 
@@ -36,8 +36,8 @@ CASES = {
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
-def test_broken_graph_exit_2_names_culprit(name):
-    res = run_cli("validate", str(BROKEN / name))
+def test_broken_graph_exit_2_names_culprit(name, capsys):
+    res = pasim_result(capsys, "validate", str(BROKEN / name))
     assert res.returncode == 2, res.stderr
     assert "Traceback" not in res.stderr
     for word in CASES[name]:
@@ -63,16 +63,16 @@ def test_all_problems_reported_at_once():
     assert all(p.file.endswith("many_problems.yaml") and p.line > 0 for p in problems)
 
 
-def test_validate_json_lists_problems():
-    res = run_cli("validate", str(BROKEN / "unknown_param.yaml"), "--json")
+def test_validate_json_lists_problems(capsys):
+    res = pasim_result(capsys, "validate", str(BROKEN / "unknown_param.yaml"), "--json")
     assert res.returncode == 2
     out = json.loads(res.stdout)
     assert out["valid"] is False
     assert out["problems"][0]["block"] == "tx"
 
 
-def test_validate_json_lists_blocks_and_connections():
-    res = run_cli("validate", str(GRAPHS / "generic_radar.yaml"), "--json")
+def test_validate_json_lists_blocks_and_connections(capsys):
+    res = pasim_result(capsys, "validate", str(GRAPHS / "generic_radar.yaml"), "--json")
     assert res.returncode == 0, res.stderr
     out = json.loads(res.stdout)
     assert out["blocks"]["weather"]["type"] == "channel.weather"
@@ -80,28 +80,33 @@ def test_validate_json_lists_blocks_and_connections():
     assert "weather.iq -> receiver.iq_in" in out["connections"]
 
 
-def test_set_on_missing_block_is_an_error():
-    res = run_cli("validate", str(GRAPHS / "generic_radar.yaml"), "--set", "nosuch.gain_db=3")
+def test_set_on_missing_block_is_an_error(capsys):
+    res = pasim_result(
+        capsys, "validate", str(GRAPHS / "generic_radar.yaml"), "--set", "nosuch.gain_db=3"
+    )
     assert res.returncode == 2
     assert "nosuch" in res.stderr and "no block named" in res.stderr
     assert "Traceback" not in res.stderr
 
 
-def test_set_out_of_bounds_value_is_an_error():
-    res = run_cli("validate", str(GRAPHS / "generic_radar.yaml"), "--set", "scan.pulses=1")
+def test_set_out_of_bounds_value_is_an_error(capsys):
+    res = pasim_result(
+        capsys, "validate", str(GRAPHS / "generic_radar.yaml"), "--set", "scan.pulses=1"
+    )
     assert res.returncode == 2
     assert "block 'scan'" in res.stderr and "parameter 'pulses'" in res.stderr
 
 
-def test_run_with_broken_graph_exits_2_before_computing(tmp_path):
+def test_run_with_broken_graph_exits_2_before_computing(tmp_path, capsys):
     out = tmp_path / "x.zarr"
-    res = run_cli("run", str(BROKEN / "unknown_type.yaml"), "--out", str(out))
+    res = pasim_result(capsys, "run", str(BROKEN / "unknown_type.yaml"), "--out", str(out))
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert not out.exists()
 
 
-def test_missing_truth_file_is_named(tmp_path):
-    res = run_cli(
+def test_missing_truth_file_is_named(tmp_path, capsys):
+    res = pasim_result(
+        capsys,
         "run",
         str(GRAPHS / "generic_radar.yaml"),
         "--truth",
@@ -113,8 +118,8 @@ def test_missing_truth_file_is_named(tmp_path):
     assert "/no/such/file" in res.stderr and "no such file" in res.stderr
 
 
-def test_missing_graph_file():
-    res = run_cli("validate", "nope.yaml")
+def test_missing_graph_file(capsys):
+    res = pasim_result(capsys, "validate", "nope.yaml")
     assert res.returncode == 2 and "nope.yaml" in res.stderr and "cannot read" in res.stderr
 
 
@@ -137,10 +142,11 @@ connections:
     assert not any("hpa" in m and "name the port" in m for m in msgs)
 
 
-def test_truth_file_that_is_not_level2(tmp_path):
+def test_truth_file_that_is_not_level2(tmp_path, capsys):
     bogus = tmp_path / "notradar.bin"
     bogus.write_bytes(b"this is not a NEXRAD volume" * 100)
-    res = run_cli(
+    res = pasim_result(
+        capsys,
         "run",
         str(GRAPHS / "generic_radar.yaml"),
         "--truth",
@@ -153,15 +159,16 @@ def test_truth_file_that_is_not_level2(tmp_path):
     assert not (tmp_path / "x.zarr").exists()
 
 
-def test_bad_sector_is_named():
-    res = run_cli("validate", str(GRAPHS / "generic_radar.yaml"), "--sector", "west")
+def test_bad_sector_is_named(capsys):
+    res = pasim_result(capsys, "validate", str(GRAPHS / "generic_radar.yaml"), "--sector", "west")
     assert res.returncode == 2 and "--sector" in res.stderr and "AZ0:AZ1" in res.stderr
 
 
-def test_beams_behind_the_face_are_refused_naming_the_block(tmp_path):
+def test_beams_behind_the_face_are_refused_naming_the_block(tmp_path, capsys):
     """Beams behind a planar array's face cannot be steered: refused before the run (it
     failed on the first beam), naming the block (tests/test_steering_checks.py)."""
-    res = run_cli(
+    res = pasim_result(
+        capsys,
         "run",
         str(GRAPHS / "planar_patch_radar.yaml"),
         "--sector",
