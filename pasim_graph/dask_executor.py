@@ -169,7 +169,10 @@ def check_storage(scheduler: str, target: str | Path) -> None:
     tasks get it. A LocalCluster's workers (``--workers``) share this process's view."""
     from .shared_storage import StorageError, check_shared_storage
 
-    client, _ = open_client(None, scheduler)
+    try:
+        client, _ = open_client(None, scheduler)
+    except OSError as exc:  # distributed's TimeoutError is one
+        raise SchedulerError(f"--scheduler {scheduler!r}: cannot connect ({exc})") from None
     try:
         check_shared_storage(client, target)
     except StorageError as exc:
