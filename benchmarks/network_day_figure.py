@@ -31,7 +31,12 @@ def main() -> None:
     )
     p.add_argument("--out", type=Path, default=ROOT / "docs" / "scaling_network_day.png")
     args = p.parse_args()
-    lines = [json.loads(line) for line in args.results.read_text().splitlines() if line]
+    lines, seen = [], set()
+    for text in args.results.read_text().splitlines():
+        line = json.loads(text)
+        if text and line["method"] not in seen:  # the first measurement of each method
+            seen.add(line["method"])
+            lines.append(line)
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
     for line, colour in zip(lines, ["tab:blue", "tab:orange"], strict=False):
         rows = line["rotations"]
