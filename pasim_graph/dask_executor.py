@@ -162,6 +162,25 @@ class SchedulerError(RuntimeError):
     """The scheduler named for a run cannot be reached or understood."""
 
 
+def check_storage(scheduler: str, target: str | Path) -> None:
+    """Before anything is written: refuse (:class:`SchedulerError`, one line) the cluster at
+    ``scheduler`` if one of its workers does not read and write ``target``'s folder as this
+    process does (:mod:`pasim_graph.shared_storage`). ``target`` is the path as the chunk
+    tasks get it. A LocalCluster's workers (``--workers``) share this process's view."""
+    from .shared_storage import StorageError, check_shared_storage
+
+    try:
+        client, _ = open_client(None, scheduler)
+    except OSError as exc:  # distributed's TimeoutError is one
+        raise SchedulerError(f"--scheduler {scheduler!r}: cannot connect ({exc})") from None
+    try:
+        check_shared_storage(client, target)
+    except StorageError as exc:
+        raise SchedulerError(str(exc)) from None
+    finally:
+        client.close()
+
+
 def _warm_up(classes: list[type[Block]]) -> None:
     """A worker's first-use costs, paid when it starts (while the client reads the inputs)
     instead of in its first chunk: the blocks' lazy imports, and the engine's own."""
@@ -389,6 +408,9 @@ class DaskExecutor:
         run ends. ``command`` is recorded in the lock, so a refused run can say who holds it.
         """
         path = Path(path)
+        if self._client is None and self.scheduler not in (None, *LOCAL_SCHEDULERS):
+            # Before the store is made: a worker that does not share its folder is refused.
+            check_storage(self.scheduler, path.parent)
         if resume:
             self.adopt_chunking(path)
         inputs = input_digests(self.graph)

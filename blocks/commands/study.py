@@ -72,10 +72,12 @@ class StudyCommand:
     def run(self, args: argparse.Namespace) -> int:
         from pasim_graph.command_api import UserError
         from pasim_graph.dask_executor import (
+            LOCAL_SCHEDULERS,
             ResourceError,
             ResumeError,
             SchedulerError,
             check_scheduler,
+            check_storage,
         )
         from pasim_graph.executor import BlockError
         from pasim_graph.steering import SteeringError
@@ -124,12 +126,15 @@ class StudyCommand:
         cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None
         if args.workers is not None and (args.workers < 1 or (cores and args.workers > cores)):
             raise UserError(f"--workers {args.workers}: give 1 to {cores or 'the cores'}")
+        out = Path(args.out)
         if args.scheduler:
             try:
                 check_scheduler(args.scheduler)
+                if args.scheduler not in LOCAL_SCHEDULERS:
+                    # Before the study's folder is made: its workers must share it.
+                    check_storage(args.scheduler, out)
             except SchedulerError as exc:
                 raise UserError(str(exc)) from None
-        out = Path(args.out)
         try:
             state = take_folder(out, study, args.resume, study_inputs(study, runs))
         except StudyError as exc:
