@@ -21,7 +21,7 @@ from pasim_graph.graph_export import (
 )
 from pasim_graph.graphfile import read
 
-from .conftest import FIXTURES, GRAPHS, run_cli
+from .conftest import FIXTURES, GRAPHS, pasim_result
 
 FILES = sorted(GRAPHS.glob("*.yaml"))
 SVG = "{http://www.w3.org/2000/svg}"
@@ -132,21 +132,21 @@ def test_kinds_get_distinct_colours():
     assert len(set(colours.values())) == len(colours)
 
 
-def test_cli_formats_print_and_write(tmp_path):
+def test_cli_formats_print_and_write(tmp_path, capsys):
     graph = str(GRAPHS / "generic_radar.yaml")
-    res = run_cli("graph", graph, "--format", "mermaid")
+    res = pasim_result(capsys, "graph", graph, "--format", "mermaid")
     assert res.returncode == 0, res.stderr
     assert res.stdout.startswith("flowchart LR")
     out = tmp_path / "g.svg"
-    res = run_cli("graph", graph, "--out", str(out))
+    res = pasim_result(capsys, "graph", graph, "--out", str(out))
     assert res.returncode == 0, res.stderr
     assert ET.parse(out).getroot().tag == f"{SVG}svg"
-    res = run_cli("graph", graph, "--format", "dot")
+    res = pasim_result(capsys, "graph", graph, "--format", "dot")
     assert pydot.graph_from_dot_data(res.stdout)
 
 
-def test_cli_refuses_a_broken_graph_with_the_engine_report():
-    res = run_cli("graph", str(FIXTURES / "broken" / "incompatible.yaml"))
+def test_cli_refuses_a_broken_graph_with_the_engine_report(capsys):
+    res = pasim_result(capsys, "graph", str(FIXTURES / "broken" / "incompatible.yaml"))
     assert res.returncode == 2
     assert "incompatible types in 'tx.pulse -> antenna.beams'" in res.stderr
     assert not res.stdout

@@ -10,7 +10,7 @@ import json
 import pytest
 import xarray as xr
 
-from .conftest import GRAPHS, ROOT, run_cli
+from .conftest import GRAPHS, ROOT, pasim_result, run_cli
 
 GENERIC = str(GRAPHS / "generic_radar.yaml")
 RAINBOW = ROOT / "tests" / "fixtures" / "truth" / "2013051000000600dBZ.vol"
@@ -46,15 +46,15 @@ def test_the_run_estimates_moments_its_truth_lacks(store):
     assert not any(f"truth_{n}" in sweep for n in WITHOUT)
 
 
-def test_score_lists_the_moments_without_truth(store):
-    res = run_cli("score", str(store))
+def test_score_lists_the_moments_without_truth(store, capsys):
+    res = pasim_result(capsys, "score", str(store))
     assert res.returncode == 0, res.stderr
     rows = {line.split()[0]: line for line in res.stdout.splitlines() if line.strip()}
     for name in ("VRADH", "WRADH"):
         assert "no truth" in rows[name], res.stdout
         assert "nan" not in rows[name].lower()
     assert "no truth" not in rows["DBZH"]
-    res = run_cli("score", str(store), "--json")
+    res = pasim_result(capsys, "score", str(store), "--json")
     scores = json.loads(res.stdout)
     assert scores["VRADH"] == {"no_truth": True, "count": 0}
     assert scores["WRADH"]["no_truth"] is True
@@ -65,7 +65,7 @@ def _texts(ax) -> str:
     return " ".join([ax.get_title(), ax.get_ylabel(), *(t.get_text() for t in ax.texts)])
 
 
-def test_plot_marks_the_rows_without_truth(store, tmp_path):
+def test_plot_marks_the_rows_without_truth(store, tmp_path, capsys):
     from pasim_blocks.products.moment_figures import available, plot_store, store_figure
 
     sweep = sweep_of(store)
@@ -79,7 +79,7 @@ def test_plot_marks_the_rows_without_truth(store, tmp_path):
     out = tmp_path / "plot.png"
     notes = plot_store(store, out)
     assert out.stat().st_size > 10_000 and any("WRADH" in n for n in notes)
-    res = run_cli("plot", str(store), "--out", str(tmp_path / "cli.png"))
+    res = pasim_result(capsys, "plot", str(store), "--out", str(tmp_path / "cli.png"))
     assert res.returncode == 0, res.stderr
 
 

@@ -16,7 +16,7 @@ from pasim_blocks.products.moment_figures import (
 
 from pasim_graph.store import summarize
 
-from .conftest import GRAPHS, run_cli
+from .conftest import GRAPHS, pasim_result, run_cli
 
 GENERIC = str(GRAPHS / "generic_radar.yaml")
 
@@ -33,14 +33,17 @@ def store(tmp_path_factory):
     return out
 
 
-def test_plot_draws_a_row_per_moment(store, tmp_path):
+def test_plot_draws_a_row_per_moment(store, tmp_path, capsys):
     out = tmp_path / "all.png"
-    res = run_cli("plot", str(store), "--out", str(out))
+    res = pasim_result(capsys, "plot", str(store), "--out", str(out))
     assert res.returncode == 0, res.stderr
     assert "note:" not in res.stderr  # every moment is in a full run
     img = imread(out)
     one = tmp_path / "one.png"
-    assert run_cli("plot", str(store), "--fields", "DBZH", "--out", str(one)).returncode == 0
+    assert (
+        pasim_result(capsys, "plot", str(store), "--fields", "DBZH", "--out", str(one)).returncode
+        == 0
+    )
     row = imread(one)
     assert img.shape[1] == row.shape[1]
     # Six rows of panels: the picture is about six times as tall as one row.
@@ -94,28 +97,28 @@ def test_a_row_without_truth_says_so(store):
     assert "truth_DBZH\nnot in the store" in texts
 
 
-def test_missing_fields_are_skipped_with_a_note(tmp_path):
+def test_missing_fields_are_skipped_with_a_note(tmp_path, capsys):
     out = tmp_path / "dbz.zarr"
-    res = run_cli(
+    res = pasim_result(capsys,
         "run", GENERIC, "--sector", "280:282", "--set", "weather.method=expected",
         "--outputs", "DBZH", "--out", str(out),
     )  # fmt: skip
     assert res.returncode == 0, res.stderr
     png = tmp_path / "dbz.png"
-    res = run_cli("plot", str(out), "--fields", "DBZH,ZDR,NOPE", "--out", str(png))
+    res = pasim_result(capsys, "plot", str(out), "--fields", "DBZH,ZDR,NOPE", "--out", str(png))
     assert res.returncode == 0, res.stderr
     assert "note: ZDR: neither ZDR nor truth_ZDR is in the store; skipped" in res.stderr
     assert "note: NOPE: not a moment this plot knows" in res.stderr
     assert png.exists()
-    res = run_cli("plot", str(out), "--fields", "ZDR", "--out", str(png))
+    res = pasim_result(capsys, "plot", str(out), "--fields", "ZDR", "--out", str(png))
     assert res.returncode == 2 and "none of the fields can be drawn" in res.stderr
 
 
-def test_not_a_store_exits_2_naming_it(tmp_path):
-    res = run_cli("plot", str(tmp_path / "missing.zarr"))
+def test_not_a_store_exits_2_naming_it(tmp_path, capsys):
+    res = pasim_result(capsys, "plot", str(tmp_path / "missing.zarr"))
     assert res.returncode == 2
     assert f"{tmp_path / 'missing.zarr'}: no such store" in res.stderr
-    res = run_cli("plot", str(GRAPHS))
+    res = pasim_result(capsys, "plot", str(GRAPHS))
     assert res.returncode == 2
     assert f"{GRAPHS}: not a PASIM-graph store" in res.stderr
     assert "Traceback" not in res.stderr

@@ -11,7 +11,7 @@ import xarray as xr
 import xradar.model as xm
 from pasim_blocks.signals import MOMENTS
 
-from .conftest import GRAPHS, run_cli
+from .conftest import GRAPHS, pasim_result, run_cli
 
 matplotlib.use("Agg")
 
@@ -74,8 +74,8 @@ def test_store_georeferences_and_pyart_plots(small_store, tmp_path):
     assert (tmp_path / "ppi.png").stat().st_size > 10_000
 
 
-def test_score_json(small_store):
-    res = run_cli("score", str(small_store), "--json")
+def test_score_json(small_store, capsys):
+    res = pasim_result(capsys, "score", str(small_store), "--json")
     assert res.returncode == 0, res.stderr
     scores = json.loads(res.stdout)
     assert set(scores) == {"DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH"}
@@ -85,52 +85,55 @@ def test_score_json(small_store):
     assert scores["ZDR"]["requirement_std"] == 0.2  # paper Table 3
 
 
-def test_same_seed_same_numbers_whatever_the_chunking(small_store, tmp_path):
+def test_same_seed_same_numbers_whatever_the_chunking(small_store, tmp_path, capsys):
     again = tmp_path / "again.zarr"
-    res = run_cli("run", GENERIC, *SMALL, "--seed", "7", "--chunk", "1", "--out", str(again))
+    res = pasim_result(
+        capsys, "run", GENERIC, *SMALL, "--seed", "7", "--chunk", "1", "--out", str(again)
+    )
     assert res.returncode == 0, res.stderr
     a = xr.open_datatree(small_store, engine="zarr")["sweep_0"]
     b = xr.open_datatree(again, engine="zarr")["sweep_0"]
     for name in ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH"):
         np.testing.assert_array_equal(a[name].values, b[name].values)
     other = tmp_path / "other.zarr"
-    res = run_cli("run", GENERIC, *SMALL, "--seed", "8", "--out", str(other))
+    res = pasim_result(capsys, "run", GENERIC, *SMALL, "--seed", "8", "--out", str(other))
     assert res.returncode == 0
     c = xr.open_datatree(other, engine="zarr")["sweep_0"]
     assert not np.array_equal(np.nan_to_num(a["DBZH"].values), np.nan_to_num(c["DBZH"].values))
 
 
-def test_existing_store_is_not_overwritten(small_store):
-    res = run_cli("run", GENERIC, *SMALL, "--out", str(small_store))
+def test_existing_store_is_not_overwritten(small_store, capsys):
+    res = pasim_result(capsys, "run", GENERIC, *SMALL, "--out", str(small_store))
     assert res.returncode == 2 and "exists" in res.stderr and "Traceback" not in res.stderr
 
 
-def test_score_of_missing_store():
-    res = run_cli("score", "/no/such.zarr")
+def test_score_of_missing_store(capsys):
+    res = pasim_result(capsys, "score", "/no/such.zarr")
     assert res.returncode == 2 and "/no/such.zarr" in res.stderr
 
 
-def test_generic_radar_on_the_convective_sector(tmp_path):
+def test_generic_radar_on_the_convective_sector(tmp_path, capsys):
     """The issue's acceptance run: generic radar (paper Table 4), azimuth 240-330 of KLBB.
 
     Against the raw truth: DBZH std under 2.5 dB and ZDR std under 0.8 dB over at least
     10,000 scored gates (beam smoothing alone accounts for about 1.5 and 0.5 dB there).
     """
     out = tmp_path / "g.zarr"
-    res = run_cli("run", GENERIC, "--sector", "240:330", "--out", str(out))
+    res = pasim_result(capsys, "run", GENERIC, "--sector", "240:330", "--out", str(out))
     assert res.returncode == 0, res.stderr
-    scores = json.loads(run_cli("score", str(out), "--json").stdout)
+    scores = json.loads(pasim_result(capsys, "score", str(out), "--json").stdout)
     assert scores["DBZH"]["count"] >= 10_000
     assert scores["DBZH"]["std"] < 2.5
     assert scores["ZDR"]["std"] < 0.8
 
 
-def test_legacy_single_polarisation_file_runs(tmp_path):
+def test_legacy_single_polarisation_file_runs(tmp_path, capsys):
     """A legacy (message 1) Level-II file, as Py-ART's tests carry: no dual-pol truth, and
     the run still completes and scores the moments the truth has."""
     pyart_testing = pytest.importorskip("pyart.testing")
     out = tmp_path / "legacy.zarr"
-    res = run_cli(
+    res = pasim_result(
+        capsys,
         "run",
         GENERIC,
         "--truth",
@@ -145,7 +148,7 @@ def test_legacy_single_polarisation_file_runs(tmp_path):
     assert res.returncode == 0, res.stderr
     assert "Warning" not in res.stderr
     assert "note:" in res.stderr and "single polarisation" in res.stderr
-    scores = json.loads(run_cli("score", str(out), "--json").stdout)
+    scores = json.loads(pasim_result(capsys, "score", str(out), "--json").stdout)
     assert "DBZH" in scores and scores["DBZH"]["count"] > 500
     assert "VRADH" in scores and scores["VRADH"]["count"] > 500
     assert "ZDR" not in scores and "RHOHV" not in scores

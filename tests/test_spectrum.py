@@ -32,7 +32,7 @@ from pasim_blocks.waveforms.pulses import pulse_dataset
 
 from pasim_graph import Chunk, load
 
-from .conftest import GRAPHS, run_cli
+from .conftest import GRAPHS, pasim_result
 from .reference.spectrum import (
     bandwidth_40_dtft,
     taylor_lfm_through_saleh,
@@ -150,18 +150,23 @@ def test_mask_shape() -> None:
     assert m[4] == -60 and m[5] == -60
 
 
-def test_command_line_json_plot_and_errors(tmp_path) -> None:
+def test_command_line_json_plot_and_errors(tmp_path, capsys) -> None:
     png = tmp_path / "spectrum.png"
-    res = run_cli("spectrum", str(GRAPHS / "waveform_nlfm.yaml"), "--json", "--plot", str(png))
+    res = pasim_result(
+        capsys, "spectrum", str(GRAPHS / "waveform_nlfm.yaml"), "--json", "--plot", str(png)
+    )
     assert res.returncode == 0, res.stderr
     out = json.loads(res.stdout)
     assert out["passes"] is True and out["category"] == "D"
     assert isinstance(out["margin_db"], float)
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    bad = run_cli("spectrum", str(GRAPHS / "waveform_nlfm.yaml"), "--peak-power-w", "-3")
+    bad = pasim_result(
+        capsys, "spectrum", str(GRAPHS / "waveform_nlfm.yaml"), "--peak-power-w", "-3"
+    )
     assert bad.returncode == 2 and "Traceback" not in bad.stderr
     assert "--peak-power-w" in bad.stderr
-    long_edges = run_cli(
+    long_edges = pasim_result(
+        capsys,
         "spectrum",
         str(GRAPHS / "generic_radar.yaml"),
         "--set",

@@ -8,36 +8,40 @@ import re
 import numpy as np
 import xarray as xr
 
-from .conftest import GRAPHS, run_cli
+from .conftest import GRAPHS, pasim_result
 
 GENERIC = str(GRAPHS / "generic_radar.yaml")
 SMALL = ["--sector", "282:285", "--set", "scan.pulses=16", "--seed", "5"]
 
 
-def test_outputs_dbzh_gives_the_same_dbzh_and_nothing_else(tmp_path):
+def test_outputs_dbzh_gives_the_same_dbzh_and_nothing_else(tmp_path, capsys):
     full, only = tmp_path / "full.zarr", tmp_path / "dbzh.zarr"
-    res = run_cli("run", GENERIC, *SMALL, "--out", str(full))
+    res = pasim_result(capsys, "run", GENERIC, *SMALL, "--out", str(full))
     assert res.returncode == 0, res.stderr
-    res = run_cli("run", GENERIC, *SMALL, "--outputs", "DBZH", "--out", str(only))
+    res = pasim_result(capsys, "run", GENERIC, *SMALL, "--outputs", "DBZH", "--out", str(only))
     assert res.returncode == 0, res.stderr
     a = xr.open_datatree(full, engine="zarr")["sweep_0"]
     b = xr.open_datatree(only, engine="zarr")["sweep_0"]
     np.testing.assert_array_equal(a["DBZH"].values, b["DBZH"].values)
     for name in ("ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH"):
         assert name in a and name not in b
-    scores = json.loads(run_cli("score", str(only), "--json").stdout)
+    scores = json.loads(pasim_result(capsys, "score", str(only), "--json").stdout)
     assert list(scores) == ["DBZH"] and scores["DBZH"]["count"] > 100
 
 
-def test_unknown_output_field_is_refused_before_running(tmp_path):
-    res = run_cli("run", GENERIC, *SMALL, "--outputs", "DBZH,DBZX", "--out", str(tmp_path / "x"))
+def test_unknown_output_field_is_refused_before_running(tmp_path, capsys):
+    res = pasim_result(
+        capsys, "run", GENERIC, *SMALL, "--outputs", "DBZH,DBZX", "--out", str(tmp_path / "x")
+    )
     assert res.returncode == 2
     assert "DBZX" in res.stderr and "ZDR" in res.stderr and "Traceback" not in res.stderr
     assert not (tmp_path / "x").exists()
 
 
-def test_tradeoff_json_rows(tmp_path):
-    res = run_cli("tradeoff", GENERIC, *SMALL, "--levels", "expected,combined,covariance", "--json")
+def test_tradeoff_json_rows(tmp_path, capsys):
+    res = pasim_result(
+        capsys, "tradeoff", GENERIC, *SMALL, "--levels", "expected,combined,covariance", "--json"
+    )
     assert res.returncode == 0, res.stderr
     rows = json.loads(res.stdout)
     assert [r["level"] for r in rows] == ["expected", "combined", "covariance"]
@@ -59,16 +63,16 @@ def test_tradeoff_json_rows(tmp_path):
     assert "chunks" not in res.stdout
 
 
-def test_tradeoff_unknown_level():
-    res = run_cli("tradeoff", GENERIC, *SMALL, "--levels", "fastest")
+def test_tradeoff_unknown_level(capsys):
+    res = pasim_result(capsys, "tradeoff", GENERIC, *SMALL, "--levels", "fastest")
     assert res.returncode == 2 and "fastest" in res.stderr and "expected" in res.stderr
 
 
-def test_truth_sector_follows_a_scan_left_at_its_defaults(tmp_path):
+def test_truth_sector_follows_a_scan_left_at_its_defaults(tmp_path, capsys):
     """The truth reads the scan's sector even when the graph file leaves it to the defaults."""
     text = (GRAPHS / "generic_radar.yaml").read_text()
     text = text.replace("azimuth_start_deg: 240.0, azimuth_stop_deg: 330.0, ", "")
     graph = tmp_path / "defaults.yaml"
     graph.write_text(text)
-    res = run_cli("validate", str(graph), "--json")
+    res = pasim_result(capsys, "validate", str(graph), "--json")
     assert res.returncode == 0, res.stderr

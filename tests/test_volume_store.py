@@ -16,7 +16,7 @@ import xarray as xr
 from pasim_graph import Chunk
 from pasim_graph.scores import TIME_ON_TARGET, sweep_names, volume_scores
 
-from .conftest import GRAPHS, pasim_out, run_cli
+from .conftest import GRAPHS, pasim_out, pasim_result, run_cli
 
 CUTS = "0.5 0.0031 16; 1.5 0.001 32; 3.4 0.0012 24 243:245"
 #: (elevation, PRT, pulses, beams) of each cut over the sector 240:246.
@@ -215,14 +215,14 @@ def test_the_vcp212_example_declares_every_cut():
 
 
 @pytest.mark.slow
-def test_vcp212_over_the_bundled_volume_writes_and_scores_every_cut(tmp_path):
+def test_vcp212_over_the_bundled_volume_writes_and_scores_every_cut(tmp_path, capsys):
     """The whole example (1,530 beams, about 3.5 min here): 17 sweeps, each scored."""
     import json
 
     out = tmp_path / "vcp212"
-    done = run_cli("run", str(GRAPHS / "generic_vcp212.yaml"), "--out", str(out))
+    done = pasim_result(capsys, "run", str(GRAPHS / "generic_vcp212.yaml"), "--out", str(out))
     assert done.returncode == 0, done.stderr
-    data = json.loads(run_cli("score", str(out), "--json").stdout)
+    data = json.loads(pasim_result(capsys, "score", str(out), "--json").stdout)
     assert len(data["sweeps"]) == 17
     assert all(s["scores"]["DBZH"]["count"] > 1000 for s in data["sweeps"].values())
 

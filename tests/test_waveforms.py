@@ -25,7 +25,7 @@ from pasim_blocks.waveforms.chain import ChainError, analyse, find_chain
 
 from pasim_graph import load
 
-from .conftest import GRAPHS, run_cli
+from .conftest import GRAPHS, pasim_result
 
 C = 299_792_458.0
 B_HZ, T_S = 3.6e6, 50e-6
@@ -108,10 +108,10 @@ def test_blind_range_is_the_pulse_length(figures) -> None:
         assert m["sample_rate_hz"] == pytest.approx(2 * B_HZ)
 
 
-def test_command_line_json_and_plot(tmp_path) -> None:
+def test_command_line_json_and_plot(tmp_path, capsys) -> None:
     png = tmp_path / "fig4.png"
-    res = run_cli(
-        "waveform", str(GRAPHS / "waveform_taylor_lfm.yaml"), "--json", "--plot", str(png)
+    res = pasim_result(
+        capsys, "waveform", str(GRAPHS / "waveform_taylor_lfm.yaml"), "--json", "--plot", str(png)
     )
     assert res.returncode == 0, res.stderr
     out = json.loads(res.stdout)
@@ -154,19 +154,19 @@ connections:
 """
 
 
-def test_graph_without_filter_is_a_user_error(tmp_path) -> None:
+def test_graph_without_filter_is_a_user_error(tmp_path, capsys) -> None:
     path = tmp_path / "no_filter.yaml"
     path.write_text(NO_FILTER)
-    res = run_cli("waveform", str(path))
+    res = pasim_result(capsys, "waveform", str(path))
     assert res.returncode == 2
     assert "Traceback" not in res.stderr
     assert "no receive filter" in res.stderr and "range_response" in res.stderr
 
 
-def test_two_filters_need_choosing(tmp_path) -> None:
+def test_two_filters_need_choosing(tmp_path, capsys) -> None:
     path = tmp_path / "two.yaml"
     path.write_text(TWO_FILTERS)
-    res = run_cli("waveform", str(path))
+    res = pasim_result(capsys, "waveform", str(path))
     assert res.returncode == 2 and "choose one with --filter" in res.stderr
     b = analyse(load(path), "b").metrics
     assert b["filter"] == "b" and b["amplifiers"] == []
@@ -175,7 +175,7 @@ def test_two_filters_need_choosing(tmp_path) -> None:
         analyse(load(path), "mf")
 
 
-def test_bad_waveform_file_is_a_user_error(tmp_path) -> None:
+def test_bad_waveform_file_is_a_user_error(tmp_path, capsys) -> None:
     bad = tmp_path / "pulse.npz"
     np.savez(bad, envelope=np.ones(8))
     text = (GRAPHS / "waveform_lfm.yaml").read_text()
@@ -185,7 +185,7 @@ def test_bad_waveform_file_is_a_user_error(tmp_path) -> None:
     )
     path = tmp_path / "file.yaml"
     path.write_text(text)
-    res = run_cli("waveform", str(path))
+    res = pasim_result(capsys, "waveform", str(path))
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert "block 'tx'" in res.stderr and "no 'sample_rate_hz'" in res.stderr
 
