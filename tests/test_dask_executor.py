@@ -16,7 +16,7 @@ from pasim_graph.dask_executor import choose_chunk
 from pasim_graph.store import run_state
 from pasim_graph.task_record import read_tasks
 
-from .conftest import GRAPHS, ROOT, run_cli
+from .conftest import GRAPHS, ROOT, pasim_result, run_cli
 
 GENERIC = str(GRAPHS / "generic_radar.yaml")
 FAST = ["--set", "scan.pulses=16", "--seed", "5"]
@@ -97,7 +97,7 @@ def test_chunk_chosen_from_the_workers():
             assert 1 <= choose_chunk(n, w) <= 8
 
 
-def test_killed_run_resumes_to_the_same_numbers(tmp_path):
+def test_killed_run_resumes_to_the_same_numbers(tmp_path, capsys):
     """SIGKILL part-way, then --resume: equal to a run never interrupted."""
     args = ["run", GENERIC, "--sector", "280:300", *FAST, "--chunk", "2"]
     killed = tmp_path / "killed.zarr"
@@ -123,27 +123,28 @@ def test_killed_run_resumes_to_the_same_numbers(tmp_path):
     assert 0 < state[1].sum() < state[1].size
 
     # An incomplete store is never scored as if it were complete, nor silently reused.
-    res = run_cli("score", str(killed))
+    res = pasim_result(capsys, "score", str(killed))
     assert res.returncode == 2 and "did not finish" in res.stderr
-    res = run_cli(*args, "--out", str(killed))
+    res = pasim_result(capsys, *args, "--out", str(killed))
     assert res.returncode == 2 and "--resume" in res.stderr
 
     # Resumed without --chunk: the store keeps the chunking it was begun with.
-    res = run_cli(*args[:-2], "--out", str(killed), "--resume")
+    res = pasim_result(capsys, *args[:-2], "--out", str(killed), "--resume")
     assert res.returncode == 0, res.stderr
     assert "chunks of 2" in res.stderr
     full = tmp_path / "full.zarr"
-    res = run_cli(*args, "--out", str(full))
+    res = pasim_result(capsys, *args, "--out", str(full))
     assert res.returncode == 0, res.stderr
     assert_same_numbers(sweep(killed), sweep(full))
     assert run_state(killed)[0]["pasim_complete"] == "true"
 
 
-def test_resume_refuses_a_store_from_another_run(tmp_path):
+def test_resume_refuses_a_store_from_another_run(tmp_path, capsys):
     out = tmp_path / "a.zarr"
-    res = run_cli("run", GENERIC, "--sector", "280:282", *FAST, "--out", str(out))
+    res = pasim_result(capsys, "run", GENERIC, "--sector", "280:282", *FAST, "--out", str(out))
     assert res.returncode == 0, res.stderr
-    res = run_cli(
+    res = pasim_result(
+        capsys,
         "run",
         GENERIC,
         "--sector",
@@ -157,7 +158,9 @@ def test_resume_refuses_a_store_from_another_run(tmp_path):
         str(out),
     )
     assert res.returncode == 2 and "another run" in res.stderr
-    res = run_cli("run", GENERIC, "--sector", "280:282", *FAST, "--resume", "--out", str(out))
+    res = pasim_result(
+        capsys, "run", GENERIC, "--sector", "280:282", *FAST, "--resume", "--out", str(out)
+    )
     assert res.returncode == 0 and "already complete" in res.stderr
 
 

@@ -19,7 +19,7 @@ import pytest
 from pasim_graph import outputs
 from pasim_graph.outputs import write_atomic
 
-from .conftest import GRAPHS, ROOT, pasim, run_cli
+from .conftest import GRAPHS, ROOT, pasim, pasim_result, run_cli
 
 GENERIC = str(GRAPHS / "generic_radar.yaml")
 
@@ -42,15 +42,15 @@ def one_line(err: str) -> str:
     return lines[0]
 
 
-def test_plot_onto_a_folder_is_one_line(store, tmp_path):
-    res = run_cli("plot", str(store), "--fields", "DBZH", "--out", str(tmp_path))
+def test_plot_onto_a_folder_is_one_line(store, tmp_path, capsys):
+    res = pasim_result(capsys, "plot", str(store), "--fields", "DBZH", "--out", str(tmp_path))
     assert res.returncode == 2
     line = one_line(res.stderr)
     assert str(tmp_path) in line and "folder" in line, line
 
 
-def test_graph_onto_a_full_device_is_one_line():
-    res = run_cli("graph", GENERIC, "--format", "dot", "--out", "/dev/full")
+def test_graph_onto_a_full_device_is_one_line(capsys):
+    res = pasim_result(capsys, "graph", GENERIC, "--format", "dot", "--out", "/dev/full")
     assert res.returncode == 2
     line = one_line(res.stderr)
     assert "/dev/full" in line and "No space left" in line, line
@@ -117,11 +117,11 @@ def test_write_atomic_keeps_the_old_file_when_the_new_one_fails(monkeypatch, tmp
     assert target.stat().st_mode & 0o777 == 0o640  # the file keeps its mode
 
 
-def test_the_progress_bar_goes_to_standard_error(tmp_path):
+def test_the_progress_bar_goes_to_standard_error(tmp_path, capsys):
     """dask's bar was made without ``out=``: `pasim run ... --progress > scores.txt` put
     `[####] 100% Completed` at the top of the file and showed nothing on the terminal."""
     out = tmp_path / "run.zarr"
-    res = run_cli(
+    res = pasim_result(capsys,
         "run", GENERIC, "--sector", "280:282", "--set", "weather.method=expected",
         "--progress", "--out", str(out),
     )  # fmt: skip
