@@ -63,6 +63,33 @@ def pasim_out(capsys, *argv: str) -> tuple[int, str, str]:
     return code, out.out, out.err
 
 
+def kill_run_part_way(args: list[str], out: Path, limit_s: float = 300.0) -> None:
+    """Start ``pasim ARGS --out OUT`` in a fresh process and SIGKILL it once at least one
+    chunk of the store is flagged done and more than two are not (the test fails if the run
+    ends first)."""
+    import signal
+    import time
+
+    from pasim_graph.store import run_state
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pasim_graph", *args, "--out", str(out)],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    deadline = time.monotonic() + limit_s
+    while time.monotonic() < deadline:
+        state = run_state(out) if out.exists() else None
+        if state is not None and 1 <= state[1].sum() < state[1].size - 2:
+            break
+        if proc.poll() is not None:
+            pytest.fail("the run finished before it could be killed")
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+
+
 class Result(NamedTuple):
     """What :func:`pasim_result` gives: run_cli's fields."""
 

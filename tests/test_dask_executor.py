@@ -2,21 +2,14 @@
 
 from __future__ import annotations
 
-import os
-import signal
-import subprocess
-import sys
-import time
-
 import numpy as np
-import pytest
 import xarray as xr
 
 from pasim_graph.dask_executor import choose_chunk
 from pasim_graph.store import run_state
 from pasim_graph.task_record import read_tasks
 
-from .conftest import GRAPHS, ROOT, pasim_result, run_cli
+from .conftest import GRAPHS, kill_run_part_way, pasim_result, run_cli
 
 GENERIC = str(GRAPHS / "generic_radar.yaml")
 FAST = ["--set", "scan.pulses=16", "--seed", "5"]
@@ -101,23 +94,7 @@ def test_killed_run_resumes_to_the_same_numbers(tmp_path, capsys):
     """SIGKILL part-way, then --resume: equal to a run never interrupted."""
     args = ["run", GENERIC, "--sector", "280:300", *FAST, "--chunk", "2"]
     killed = tmp_path / "killed.zarr"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "pasim_graph", *args, "--out", str(killed)],
-        cwd=ROOT,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    deadline = time.monotonic() + 120
-    state = None
-    while time.monotonic() < deadline:
-        state = run_state(killed) if killed.exists() else None
-        if state is not None and 1 <= state[1].sum() < state[1].size - 2:
-            break
-        if proc.poll() is not None:
-            pytest.fail("the run finished before it could be killed")
-        time.sleep(0.05)
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
+    kill_run_part_way(args, killed, limit_s=120)
     state = run_state(killed)
     assert state is not None and state[0]["pasim_complete"] == "false"
     assert 0 < state[1].sum() < state[1].size

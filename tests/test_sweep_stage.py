@@ -5,12 +5,7 @@ connection cannot be served."""
 from __future__ import annotations
 
 import argparse
-import os
 import re
-import signal
-import subprocess
-import sys
-import time
 
 import numpy as np
 import pytest
@@ -25,7 +20,7 @@ from pasim_graph.sweep_level import stage_problems
 from pasim_graph.sweep_stage import STAGE_DONE
 from pasim_graph.task_record import read_tasks
 
-from .conftest import GRAPHS, ROOT, pasim_out, run_cli
+from .conftest import GRAPHS, kill_run_part_way, pasim_out, run_cli
 
 DEALIAS = str(GRAPHS / "dealias_cband.yaml")
 #: 12 beams where the storm's velocities fold at C band and PRT 2 ms, 16 pulses.
@@ -178,22 +173,7 @@ def test_sigkill_during_the_chunks_then_resume(tmp_path):
     complete, and the store equals one never interrupted (separate processes: slow)."""
     args = ["run", DEALIAS, *SMALL, "--chunk", "1", "--scheduler", "sync"]
     killed = tmp_path / "killed.zarr"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "pasim_graph", *args, "--out", str(killed)],
-        cwd=ROOT,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    deadline = time.monotonic() + 300
-    while time.monotonic() < deadline:
-        state = run_state(killed) if killed.exists() else None
-        if state is not None and 1 <= state[1].sum() < state[1].size - 2:
-            break
-        if proc.poll() is not None:
-            pytest.fail("the run finished before it could be killed")
-        time.sleep(0.05)
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
+    kill_run_part_way(args, killed)
     assert run_state(killed)[0]["pasim_complete"] == "false"
     assert STAGE not in zarr.open_group(str(killed), path="sweep_0", mode="r")
     res = run_cli(*args, "--out", str(killed), "--resume")
