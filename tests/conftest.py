@@ -4,7 +4,7 @@ import os
 import subprocess
 import sys
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import pytest
 
@@ -63,10 +63,12 @@ def pasim_out(capsys, *argv: str) -> tuple[int, str, str]:
     return code, out.out, out.err
 
 
-def kill_run_part_way(args: list[str], out: Path, limit_s: float = 300.0) -> None:
+def kill_run_part_way(
+    args: list[str], out: Path, limit_s: float = 300.0, poll_s: float = 0.05
+) -> subprocess.Popen:
     """Start ``pasim ARGS --out OUT`` in a fresh process and SIGKILL it once at least one
     chunk of the store is flagged done and more than two are not (the test fails if the run
-    ends first)."""
+    ends first); returns the killed process."""
     import signal
     import time
 
@@ -85,9 +87,37 @@ def kill_run_part_way(args: list[str], out: Path, limit_s: float = 300.0) -> Non
             break
         if proc.poll() is not None:
             pytest.fail("the run finished before it could be killed")
-        time.sleep(0.05)
+        time.sleep(poll_s)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
+    return proc
+
+
+def free_port() -> int:
+    """A TCP port free on the loopback interface now."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def store_values(path: Path) -> dict[str, Any]:
+    """Every array of a store by its path in the store (the per-chunk flags aside)."""
+    import numpy as np
+    import zarr
+
+    out: dict[str, Any] = {}
+
+    def walk(group, prefix: str) -> None:
+        for name, array in group.arrays():
+            if name != "pasim_chunk_done":
+                out[prefix + name] = np.asarray(array[...])
+        for name, sub in group.groups():
+            walk(sub, f"{prefix}{name}/")
+
+    walk(zarr.open_group(str(path), mode="r"), "")
+    return out
 
 
 class Result(NamedTuple):

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -22,18 +21,12 @@ import pytest
 from pasim_graph.cli import main
 from pasim_graph.store import run_state
 
-from .conftest import GRAPHS, ROOT, same_sweep
+from .conftest import GRAPHS, ROOT, free_port, same_sweep
 
 RUN = ["run", str(GRAPHS / "uniform_ideal.yaml"), "--set", "scan.azimuth_stop_deg=40"]
 RUN += ["--chunk", "1", "--seed", "21"]
 DASK = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
 WORKER = [sys.executable, "-m", "distributed.cli.dask_worker"]
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class Cluster:

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -32,17 +31,20 @@ from pasim_graph.cli import main
 from pasim_graph.shared_storage import PREFIX, StorageError, check_shared_storage, probe_on_worker
 from pasim_graph.store import run_state
 
-from .conftest import ROOT, TINY_STUDY, TINY_UNIFORM, pasim, run_cli, same_sweep
+from .conftest import (
+    ROOT,
+    TINY_STUDY,
+    TINY_UNIFORM,
+    free_port,
+    pasim,
+    run_cli,
+    same_sweep,
+    store_values,
+)
 
 RUN = ["run", TINY_UNIFORM, "--set", "scan.azimuth_stop_deg=6", "--chunk", "1", "--seed", "3"]
 SCHEDULER = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
 WORKER = [sys.executable, "-m", "distributed.cli.dask_worker"]
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class Cluster:
@@ -225,19 +227,13 @@ def test_a_worker_that_cannot_write_says_why(tmp_path):
     assert problem == "cannot write there (Read-only file system)"
 
 
-def _store_values(path: Path) -> dict[str, np.ndarray]:
-    from .test_study_run import _store_values as values
-
-    return values(path)
-
-
 def same_study(out: Path, study: Path) -> None:
     """Every store of ``out`` holds the values of the serial study's (``study``), and its
     scores.json is the same file."""
     stores = sorted(p.relative_to(study) for p in (study / "runs").rglob("*.zarr"))
     assert stores == sorted(p.relative_to(out) for p in (out / "runs").rglob("*.zarr"))
     for rel in stores:
-        ours, theirs = _store_values(out / rel), _store_values(study / rel)
+        ours, theirs = store_values(out / rel), store_values(study / rel)
         assert ours.keys() == theirs.keys(), rel
         for name in theirs:
             kind = theirs[name].dtype.kind

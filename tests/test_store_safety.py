@@ -11,11 +11,9 @@ import hashlib
 import json
 import multiprocessing
 import os
-import signal
 import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +32,7 @@ from pasim_graph.store import (
     summarize,
 )
 
-from .conftest import FIXTURES, GRAPHS, ROOT, pasim, run_cli
+from .conftest import FIXTURES, GRAPHS, ROOT, kill_run_part_way, pasim, run_cli
 
 TINY = str(FIXTURES / "tiny_uniform.yaml")
 # 10 chunks of 2 beams, about 1 s of chunks after 2-3 s of set-up: long enough to be caught
@@ -423,22 +421,7 @@ def test_two_runs_started_together_one_refused_one_intact(tmp_path, reference):
 
 def test_stale_lock_of_a_killed_run_is_taken_over_by_resume(tmp_path, reference, capsys):
     out = tmp_path / "killed.zarr"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "pasim_graph", *RACE, "--out", str(out)],
-        cwd=ROOT,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline:
-        state = run_state(out) if out.exists() else None
-        if state is not None and 1 <= state[1].sum() < state[1].size - 2:
-            break
-        if proc.poll() is not None:
-            pytest.fail("the run finished before it could be killed")
-        time.sleep(0.02)
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
+    proc = kill_run_part_way(RACE, out, limit_s=120, poll_s=0.02)
     # The lock file outlives its run; the kernel dropped the run's flock.
     assert json.loads((out / LOCK).read_text())["pid"] == proc.pid
     before = tree_digest(out)

@@ -20,6 +20,8 @@ from pasim_blocks.study.statistics import MAD_TO_STD, bootstrap, robust_std, wra
 
 from pasim_graph.cli import main
 
+from .conftest import store_values
+
 FIX = Path(__file__).parent / "fixtures" / "study"
 STUDY = FIX / "tiny_study.yaml"
 
@@ -311,23 +313,6 @@ def test_a_run_store_damaged_on_disk_is_named_not_a_traceback(tmp_path, capsys, 
         assert scores(copy) == scores(study)  # the damaged run was written again
 
 
-def _store_values(path: Path) -> dict[str, np.ndarray]:
-    """Every array of a store by its path in the store (the per-chunk flags aside)."""
-    import zarr
-
-    out: dict[str, np.ndarray] = {}
-
-    def walk(group, prefix: str) -> None:
-        for name, array in group.arrays():
-            if name != "pasim_chunk_done":
-                out[prefix + name] = np.asarray(array[...])
-        for name, sub in group.groups():
-            walk(sub, f"{prefix}{name}/")
-
-    walk(zarr.open_group(str(path), mode="r"), "")
-    return out
-
-
 #: The in-flight study below, in a process of its own: a hang (seen once, with one client per
 #: run made from the runs' threads) dumps every thread's stack and ends that process, so the
 #: test fails naming where it hung instead of stalling.
@@ -376,7 +361,7 @@ def test_a_study_with_every_run_in_flight_is_the_serial_study(tmp_path, study):
     assert stores == sorted(p.relative_to(out) for p in (out / "runs").rglob("*.zarr"))
     assert len(stores) == 8
     for rel in stores:
-        ours, theirs = _store_values(out / rel), _store_values(study / rel)
+        ours, theirs = store_values(out / rel), store_values(study / rel)
         assert ours.keys() == theirs.keys(), rel
         for name in theirs:
             assert np.array_equal(
