@@ -99,6 +99,8 @@ def case_truth_text(case: dict[str, Any] | None) -> str:
 
 
 def format_number(x: Any, digits: int = 3) -> str:
+    """A number as the report prints it: ``digits`` significant digits, integers with
+    thousands separators, "n/a" for None and non-finite values."""
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "n/a"
     if isinstance(x, int):
