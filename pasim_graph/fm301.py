@@ -83,6 +83,8 @@ INSTRUMENT_RADAR = "radar"
 PRT_ATTRS = {"units": "seconds", "long_name": "pulse repetition time"}
 PULSES_ATTRS = {"long_name": "pulses per dwell"}
 TIME_ATTRS = {"standard_name": "time"}
+#: Attributes of the root's ``sweep_group_name`` (the groups of a volume's sweeps, in order).
+SWEEP_GROUP_NAME_ATTRS = {"long_name": "name of the group holding each sweep"}
 
 
 def sweep_group(index: int) -> str:

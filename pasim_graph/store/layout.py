@@ -16,7 +16,14 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ..fm301 import PLATFORM_FIXED, ROOT_VARIABLES, SITE_VARIABLES, SWEEP_MODE_RHI, sweep_group
+from ..fm301 import (
+    PLATFORM_FIXED,
+    ROOT_VARIABLES,
+    SITE_VARIABLES,
+    SWEEP_GROUP_NAME_ATTRS,
+    SWEEP_MODE_RHI,
+    sweep_group,
+)
 from ..ports import BEAM_DIM
 from .check import array_list, arrays_on_disk
 from .format import COMPLETE, DONE, beam_dimension, encoding, quiet_zarr_warnings
@@ -157,9 +164,7 @@ def volume_sweeps(sweeps: list[Any]) -> dict[str, Any]:
     )
     attrs = dict(sweeps[0]["sweep_fixed_angle"].attrs) if "sweep_fixed_angle" in sweeps[0] else {}
     return {
-        "sweep_group_name": xr.Variable(
-            "sweep", names, {"long_name": "name of the group holding each sweep"}
-        ),
+        "sweep_group_name": xr.Variable("sweep", names, dict(SWEEP_GROUP_NAME_ATTRS)),
         "sweep_fixed_angle": xr.Variable("sweep", angles, attrs),
     }
 
