@@ -1,4 +1,4 @@
-"""The CF/Radial attribute snapshot (``pasim_blocks/data/cf_attributes.json``) is xradar's
+"""The CF/Radial attribute snapshot (``pasim_graph/data/cf_attributes.json``) is xradar's
 data model as the installed xradar gives it: same dictionaries, same order."""
 
 from __future__ import annotations
@@ -6,13 +6,13 @@ from __future__ import annotations
 import dataclasses
 import json
 
-from pasim_blocks import cf
+from pasim_graph import fm301 as cf
 
 
 def test_the_snapshot_is_the_installed_xradars_model() -> None:
     saved = json.loads(cf.SNAPSHOT.read_text())
     live = dataclasses.asdict(cf.from_xradar())
-    assert saved["attributes"] == live, "stale snapshot: run python -m pasim_blocks.cf"
+    assert saved["attributes"] == live, "stale snapshot: run python -m pasim_graph.fm301"
     for key in live:  # the order of names too, which the store's attributes keep
         assert list(saved["attributes"][key]) == list(live[key])
 
@@ -22,7 +22,7 @@ def test_attributes_come_from_the_snapshot_without_importing_xradar() -> None:
     import sys
 
     code = (
-        "import sys; from pasim_blocks.cf import cf_attributes; a = cf_attributes(); "
+        "import sys; from pasim_graph.fm301 import cf_attributes; a = cf_attributes(); "
         "print(a.var('DBZH')['units'], 'xradar' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -244,7 +244,7 @@ def test_failed_overwrite_leaves_the_old_store_byte_for_byte(
         bad.write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(4096))
         args += ["--truth", str(bad)]
     else:
-        import pasim_graph.run_checks as checks
+        import pasim_graph.resources as checks
 
         real = shutil.disk_usage
 

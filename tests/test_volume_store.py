@@ -14,7 +14,8 @@ import pytest
 import xarray as xr
 
 from pasim_graph import Chunk
-from pasim_graph.scores import TIME_ON_TARGET, sweep_names, volume_scores
+from pasim_graph.fm301 import sweep_names
+from pasim_graph.scores import TIME_ON_TARGET, volume_scores
 
 from .conftest import GRAPHS, pasim_out, pasim_result, run_cli
 

@@ -506,7 +506,7 @@ def test_a_zarr_store_is_read_as_a_gridded_truth(tmp_path, capsys):
     its netCDF file, validates, and is part of the resume key file by file."""
     from pasim_blocks.truth.grid import open_grid
 
-    from pasim_graph.resume_key import input_digests
+    from pasim_graph.store import input_digests
 
     nc = storm_file(tmp_path)
     store = tmp_path / "storm.zarr"

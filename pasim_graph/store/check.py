@@ -9,6 +9,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..fm301 import BEAM_DIMENSIONS
+
 
 class NotAStoreError(ValueError):
     """The path is not a finished PASIM-graph run."""
@@ -164,9 +166,7 @@ def check_chunks(path: str | Path) -> list[Damage]:
             out.append(Damage(node, None, f"cannot be opened: {_short(exc)}"))
             continue
         names = list(meta.get("dimension_names") or [])
-        beam_axis = next(
-            (names.index(d) for d in ("azimuth", "elevation", "time") if d in names), None
-        )
+        beam_axis = next((names.index(d) for d in BEAM_DIMENSIONS if d in names), None)
         grid = [-(-n // c) for n, c in zip(arr.shape, arr.chunks, strict=True)]
         missing = set()
         for idx in itertools.product(*(range(g) for g in grid)):
@@ -216,7 +216,6 @@ def _unreadable_chunks(
                 arr.get_block_selection(idx)
             except Exception as exc:
                 out.append(Damage(node, idx, f"unreadable: {_short(exc)}", beam_axis))
-    return out
     return out
 
 

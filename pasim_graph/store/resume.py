@@ -1,15 +1,20 @@
-"""What must match for a store to be resumed: the run key (the graph as run, the content of the
-files it reads, the program's version, seed, chunking, products) and, when it differs, why."""
+"""Resuming a store: what must match (the run key: the graph as run, the content of the files
+it reads, the program's version, seed, chunking, products), why a store's differs, and which
+of its chunks were damaged on disk and must be written again."""
 
 from __future__ import annotations
 
 import hashlib
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from .executor import RunOptions
-from .graph import Graph
+from .check import check_chunks
+from .format import DONE
+
+if TYPE_CHECKING:
+    from ..executor import RunOptions
+    from ..graph import Graph
 
 
 class ResumeError(RuntimeError):
@@ -61,7 +66,7 @@ def input_digests(graph: Graph) -> dict[str, str]:
 def run_key(graph: Graph, options: RunOptions, inputs: dict[str, str] | None = None) -> str:
     """What must match for a store to be resumed: the graph as run, the content of the files
     it reads, the program's version, seed, chunking, products."""
-    from . import __version__
+    from .. import __version__
 
     text = json.dumps(
         {
@@ -80,7 +85,7 @@ def run_key(graph: Graph, options: RunOptions, inputs: dict[str, str] | None = N
 
 def resume_mismatch(path: Path, stored: dict[str, Any], inputs: dict[str, str]) -> str:
     """Why a store's run key differs from this run's, as precisely as the store says."""
-    from . import __version__
+    from .. import __version__
 
     theirs = stored.get("pasim_graph_version")
     if theirs is not None and theirs != __version__:
@@ -105,3 +110,31 @@ def resume_mismatch(path: Path, stored: dict[str, Any], inputs: dict[str, str]) 
         f"{path} was written by another run (graph, seed, chunk "
         "size or products differ); use --overwrite to replace it"
     )
+
+
+def damaged_chunks(path: Path, offsets: dict[str, tuple[int, int]]) -> list[int]:
+    """The run's chunks whose stored data was damaged on disk (to be written again).
+
+    ``offsets`` gives each sweep group its first chunk's index among the run's chunks and
+    its number of chunks. Damage outside the per-beam arrays (metadata, coordinates) cannot
+    be rewritten chunk by chunk: that store is refused, naming it.
+    """
+    n_chunks = sum(n for _, n in offsets.values())
+    damage = check_chunks(path)
+    redo, other = set(), []
+    for d in damage:
+        group = d.node.split("/", 1)[0]
+        if d.chunk is not None and d.node == DONE:
+            redo.add(d.chunk[0])
+        elif d.chunk is not None and "/" in d.node and group in offsets and d.beam_axis is not None:
+            first, count = offsets[group]
+            if d.chunk[d.beam_axis] < count:
+                redo.add(first + d.chunk[d.beam_axis])
+        else:
+            other.append(d)
+    if other:
+        raise ResumeError(
+            f"{path}: " + "; ".join(map(str, other[:6])) + " cannot be rewritten by --resume "
+            "(only whole chunks of the beams can); run it again with --overwrite"
+        )
+    return sorted(i for i in redo if i < n_chunks)
