@@ -3,7 +3,7 @@
 xradar takes over half a second to import, more than the rest of a one-beam run's set-up. Its
 dictionaries are therefore read from a snapshot (``data/cf_attributes.json``, written by
 ``python -m pasim_blocks.cf``) made with the xradar version it names; with another xradar
-installed they are taken from xradar itself. ``tests/test_cf.py`` checks the snapshot against
+installed they are taken from xradar itself. ``tests/store/test_cf.py`` checks the snapshot against
 the installed xradar. Blocks fetch the dictionaries once, when they are built in the client,
 and carry them as plain data to wherever their chunks run.
 """
