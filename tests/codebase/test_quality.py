@@ -1,8 +1,8 @@
-"""Lint, format and type checks, and the engine's import discipline."""
+"""Lint, format and type checks. (The engine's import discipline is checked once, in
+test_imports.py with the other import rules.)"""
 
 from __future__ import annotations
 
-import ast
 import subprocess
 import sys
 
@@ -24,15 +24,3 @@ def test_ruff(args):
 def test_mypy_engine_and_block_library():
     res = subprocess.run([sys.executable, "-m", "mypy"], cwd=ROOT, capture_output=True, text=True)
     assert res.returncode == 0, res.stdout + res.stderr
-
-
-def test_engine_never_imports_the_block_library():
-    for path in (ROOT / "pasim_graph").rglob("*.py"):
-        tree = ast.parse(path.read_text())
-        for node in ast.walk(tree):
-            names = []
-            if isinstance(node, ast.Import):
-                names = [a.name for a in node.names]
-            elif isinstance(node, ast.ImportFrom) and node.module:
-                names = [node.module]
-            assert not any(n.split(".")[0] == "pasim_blocks" for n in names), path
