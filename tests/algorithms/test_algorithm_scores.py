@@ -78,17 +78,17 @@ def test_a_product_is_scored_as_a_moment_and_leaves_the_moments_alone():
 def test_the_reports_product_table_holds_the_products_numbers():
     """The report's product rows (blocks/study/report.py) are the products of the scores, with
     their std and bias as scores.json has them; the moments' rows hold no product."""
-    from pasim_blocks.study.report import _fmt, _products, _summary
+    from pasim_blocks.study.report import format_number, product_names, summary_rows
 
     point, _ = score(True)
     scores = {"sys": {"c": {"-": point}}}
-    names = _products(scores, ["sys"], "c")
+    names = product_names(scores, ["sys"], "c")
     assert names == ["KDP_VULPIANI"]
-    (row,) = _summary(scores, ["sys"], "c", names)
+    (row,) = summary_rows(scores, ["sys"], "c", names)
     assert (row["field"], row["req_bias"], row["req_std"]) == ("KDP_VULPIANI", 0.1, 0.3)
     (cell,) = row["cells"]
     assert (cell["std"], cell["bias"]) == (
-        _fmt(point["KDP_VULPIANI"]["std"]),
-        _fmt(point["KDP_VULPIANI"]["bias"]),
+        format_number(point["KDP_VULPIANI"]["std"]),
+        format_number(point["KDP_VULPIANI"]["bias"]),
     )
-    assert [r["field"] for r in _summary(scores, ["sys"], "c")] == list(st.FIELDS)
+    assert [r["field"] for r in summary_rows(scores, ["sys"], "c")] == list(st.FIELDS)

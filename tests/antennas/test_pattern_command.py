@@ -27,7 +27,7 @@ from pasim_blocks.antennas.planar import PlanarPatchArray
 
 from pasim_graph import load
 
-from ..conftest import GRAPHS, run_cli
+from ..conftest import GRAPHS, pasim_result
 
 REQUIRED = (
     "beamwidth_az_deg",
@@ -40,8 +40,8 @@ REQUIRED = (
 )
 
 
-def pattern_json(graph: str, *args: str) -> dict:
-    res = run_cli("pattern", str(GRAPHS / graph), "--json", *args)
+def pattern_json(capsys, graph: str, *args: str) -> dict:
+    res = pasim_result(capsys, "pattern", str(GRAPHS / graph), "--json", *args)
     assert res.returncode == 0, res.stderr
     figures = json.loads(res.stdout)
     assert all(k in figures for k in REQUIRED)
@@ -57,10 +57,10 @@ def pattern_json(graph: str, *args: str) -> dict:
         ("cppar2_radar.yaml", 5.2, 0.3, -30.0),
     ],
 )
-def test_broadside_figures_match_the_paper(graph, beamwidth, tolerance, sidelobe) -> None:
+def test_broadside_figures_match_the_paper(capsys, graph, beamwidth, tolerance, sidelobe) -> None:
     """Measured (H port, azimuth cut): generic 1.000 deg / -32.00 dB; ATD 1.770 / -30.47;
     CPPAR 10 m 1.015 / -30.51; CPPAR 2 m 5.066 / -30.50 (docs/arrays.md has both ports)."""
-    figures = pattern_json(graph, "--span", "30")
+    figures = pattern_json(capsys, graph, "--span", "30")
     assert figures["beamwidth_az_deg"] == pytest.approx(beamwidth, abs=tolerance)
     assert figures["first_sidelobe_db"] <= sidelobe + 0.005
     assert figures["zdr_bias_db"] is not None
@@ -100,12 +100,19 @@ def test_cylinder_zdr_bias_is_the_same_at_every_azimuth() -> None:
     assert min(abs(b) for b in ends) > 3.0
 
 
-def test_seed_draws_the_errors_and_plot(tmp_path) -> None:
+def test_seed_draws_the_errors_and_plot(tmp_path, capsys) -> None:
     """The impaired 10 m CPPAR: the same seed gives the same figures, another seed another
-    array (in-process and on the command line alike); the ideal array's figures come with
+    array (through measure() and the command alike); the ideal array's figures come with
     them; --plot writes a PNG."""
     a = pattern_json(
-        "cppar10_impaired.yaml", "--seed", "3", "--span", "10", "--plot", str(tmp_path / "p.png")
+        capsys,
+        "cppar10_impaired.yaml",
+        "--seed",
+        "3",
+        "--span",
+        "10",
+        "--plot",
+        str(tmp_path / "p.png"),
     )
     block = build(load(GRAPHS / "cppar10_impaired.yaml"), "antenna")
     again = measure(block, 0.0, 0.0, seed=3, span_deg=10.0)
@@ -126,8 +133,8 @@ def test_seed_draws_the_errors_and_plot(tmp_path) -> None:
         (("--steer", "120,0"), "not in front of the face"),
     ],
 )
-def test_user_errors(args, message) -> None:
-    res = run_cli("pattern", str(GRAPHS / "planar_patch_radar.yaml"), *args)
+def test_user_errors(capsys, args, message) -> None:
+    res = pasim_result(capsys, "pattern", str(GRAPHS / "planar_patch_radar.yaml"), *args)
     assert res.returncode == 2
     assert message in res.stderr and "Traceback" not in res.stderr
 
