@@ -10,7 +10,7 @@ CF attributes from xradar's data model are kept as data: xradar takes over half 
 import, more than the rest of a one-beam run's set-up. Its dictionaries are therefore read from
 a snapshot (``data/cf_attributes.json``, written by ``python -m pasim_graph.fm301``) made with
 the xradar version it names; with another xradar installed they are taken from xradar itself.
-``tests/test_cf.py`` checks the snapshot against the installed xradar. Blocks fetch the
+``tests/store/test_cf.py`` checks the snapshot against the installed xradar. Blocks fetch the
 dictionaries once, when they are built in the client, and carry them as plain data to wherever
 their chunks run.
 """
