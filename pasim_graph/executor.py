@@ -20,10 +20,15 @@ import numpy as np
 import xarray as xr
 
 from .block import Block, Chunk
+from .duck_arrays import defer_pint_lookup
 from .graph import Graph
 from .ports import BEAM_DIM
 from .steering import check_beams, steerers
 from .sweep_level import is_sweep_level, run_stage
+
+# Runs, here and on every Dask worker (which imports this module to run a chunk), never import
+# pint for xarray's sake (0.9 s a process).
+defer_pint_lookup()
 
 
 class BlockError(RuntimeError):

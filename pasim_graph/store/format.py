@@ -14,8 +14,12 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from ..duck_arrays import defer_pint_lookup
 from ..fm301 import BEAM_DIMENSIONS
 from .lock import LOCK
+
+# Reading a store (plot, score, study, studio) never imports pint for xarray's sake.
+defer_pint_lookup()
 
 # A store is a directory this program made: it holds MARKER, written before anything else, and
 # while a run writes it, LOCK (whose owner holds an flock on it). Nothing is ever deleted from
