@@ -748,18 +748,28 @@ class DaskExecutor:
         path: str,
         attrs: dict[str, Any],
     ) -> list[dict[str, Any] | None]:
-        from distributed import progress, wait
+        from distributed import as_completed
 
         if not todo:
             return []
         used = sorted({starts[i][0] for i in todo})
-        # Keys of this run's own (hash=False: fresh ones). The shared inputs go as one value
-        # ([static]): scatter takes a dict's own keys as the data's keys on the cluster, and
-        # every run's are the same ("mf", "range_response")...: with a study's runs in flight
-        # at once, one run's chunks computed with another run's inputs (the short-pulse
-        # reference got the sidelobe-free one's range response, silently).
-        local = {k: client.scatter(self.sweeps[k], broadcast=True, hash=False) for k in used}
-        [shared] = client.scatter([static], broadcast=True, hash=False)
+        # The shared inputs (each sweep's executor, the once-per-run blocks' outputs) go as
+        # tasks that return them (_given), not as scattered data: the scheduler keeps how to
+        # make them, so the worker holding them may be lost (distributed's memory manager
+        # keeps one copy of what the chunks still need) and they are made again on another.
+        # Scattered data it cannot make again: a worker lost while it held the last copy
+        # cancelled the chunks waiting for it ("lost dependencies"). Their keys are this
+        # run's own (a fresh token: never another run's in flight on the same cluster).
+        own = f"pasim-inputs-{os.urandom(8).hex()}"
+        import dask
+
+        # The inputs travel with their task through the scheduler: distributed warns above
+        # 10 MB (a run's inputs are megabytes to a few hundred: docs/scaling.md).
+        with dask.config.set({"distributed.admin.large-graph-warning-threshold": "64GiB"}):
+            local = {
+                k: client.submit(_given, _Box(self.sweeps[k]), key=f"{own}-sweep-{k}") for k in used
+            }
+            shared = client.submit(_given, _Box(static), key=f"{own}-static")
         futures = [
             client.submit(
                 _run_and_write,
@@ -777,34 +787,81 @@ class DaskExecutor:
         from distributed.client import FutureCancelledError, FuturesCancelledError
         from distributed.comm.core import CommClosedError
 
+        index = {f.key: i for f, i in zip(futures, todo, strict=True)}
+        records: dict[int, dict[str, Any] | None] = {}
+        failed: dict[int, Any] = {}
+        bar = _progress_bar(client, futures) if self.progress else None
         try:
-            # distributed's wait and progress find "the" client themselves (the latest one
-            # made in this process unless told): this run's is made this thread's current
-            # one. wait, not client.gather: it fetches nothing, so a scheduler lost ends it
-            # with the futures cancelled instead of an OSError fetching the results.
-            with client.as_current():
-                if self.progress:
-                    # distributed's text bar writes to standard output, which holds the
-                    # product (the score table): the bar goes to standard error.
-                    with contextlib.redirect_stdout(sys.stderr):
-                        progress(futures)
-                # Every chunk ends: a failed one leaves none writing behind the run's back.
-                wait(futures)
-            # Re-raises a failed chunk's error here.
-            return [f.result() for f in futures]
+            # Each chunk's record is taken as it ends and the chunk released: a worker lost
+            # afterwards holds nothing of it that the scheduler would run it again for (the
+            # records of chunks done stayed on their workers until all were done: a worker
+            # lost then re-ran its chunks already written). Every chunk ends before a failure
+            # is raised: none is left writing behind the run's back.
+            # The client's own loop: as_completed would take the latest client made in
+            # this process (a study's runs share one; a test may watch with another).
+            for future in as_completed(futures, loop=client.loop):
+                i = index[future.key]
+                if future.status == "finished":
+                    records[i] = future.result()
+                    future.release()
+                else:
+                    failed[i] = future
+            if failed:
+                failed[min(failed)].result()  # raises the chunk's error (or its cancelling)
+            return [records[i] for i in todo]
         except (
             FutureCancelledError,
             FuturesCancelledError,
             CommClosedError,
             TimeoutError,
         ) as exc:
-            # The scheduler went away (or the client lost it): the chunks written so far are
-            # kept and flagged; the rest are run by --resume, on this cluster or another.
+            # The chunks written so far are kept and flagged; the rest are run by --resume,
+            # on this cluster or another.
             cancelled = (FutureCancelledError, FuturesCancelledError)
             if client.status == "running" and not isinstance(exc, cancelled):
                 raise
             where = self.scheduler or "the local cluster"
+            if client.status == "running":
+                # The scheduler is there and cancelled a chunk itself.
+                reason = getattr(exc, "reason", None) or "reason unknown"
+                raise SchedulerError(
+                    f"the scheduler ({where}) cancelled a chunk ({reason}); the chunks "
+                    "written are kept: complete the store with --resume (any cluster, or none)"
+                ) from None
             raise SchedulerError(
                 f"lost the connection to the scheduler ({where}) during the run; the chunks "
                 "written are kept: complete the store with --resume (any cluster, or none)"
             ) from None
+        finally:
+            if bar is not None:
+                bar.join(timeout=1.0)
+
+
+class _Box:
+    """What a run's shared inputs travel in to their task: opaque to dask (a dict's values
+    are not looked into for keys and tasks)."""
+
+    def __init__(self, value: Any):
+        self.value = value
+
+
+def _given(box: _Box) -> Any:
+    """A task that makes a run's shared input: the value it was given (on a worker)."""
+    return box.value
+
+
+def _progress_bar(client: Any, futures: list[Any]) -> Any:
+    """distributed's text progress bar for ``futures``, drawn from a thread of its own (it
+    blocks until they end) on standard error: standard output holds the product (the score
+    table)."""
+    import threading
+
+    from distributed import progress
+
+    def draw() -> None:
+        with contextlib.suppress(Exception), contextlib.redirect_stdout(sys.stderr):
+            progress(futures, scheduler=client.scheduler.address)
+
+    thread = threading.Thread(target=draw, name="pasim-progress", daemon=True)
+    thread.start()
+    return thread

@@ -140,6 +140,64 @@ def test_a_run_on_an_external_scheduler_is_the_local_run(tmp_path, cluster, refe
     assert not list(tmp_path.glob(f"{PREFIX}*")), "the storage probe left its files"
 
 
+class KillOnChunk:
+    """A thread that watches ``cluster``'s scheduler and kills (-9) the worker that holds a
+    run's shared inputs (its ``pasim-inputs-`` tasks) as soon as it is also given a chunk:
+    the worker whose loss the run's inputs must survive. ``killed`` names it afterwards."""
+
+    def __init__(self, cluster: Cluster, limit_s: float = 120.0):
+        import threading
+
+        self.cluster, self.limit_s = cluster, limit_s
+        self.killed: str | None = None
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._watch, daemon=True)
+        self.thread.start()
+
+    def _watch(self) -> None:
+        from distributed import Client
+
+        with Client(self.cluster.address, timeout="10s") as watch:
+            names = {a: w["name"] for a, w in watch.scheduler_info()["workers"].items()}
+            deadline = time.monotonic() + self.limit_s
+            while not self.stop.is_set() and time.monotonic() < deadline:
+                holders = {
+                    a
+                    for key, who in watch.who_has().items()
+                    if str(key).startswith("pasim-inputs-")
+                    for a in who
+                }
+                for address, keys in watch.processing().items():
+                    if address in holders and any(str(k).startswith("pasim-chunk-") for k in keys):
+                        worker = int(names[address].removeprefix("w"))
+                        self.cluster.workers[worker].send_signal(signal.SIGKILL)
+                        self.killed = names[address]
+                        return
+                time.sleep(0.01)
+
+    def join(self) -> None:
+        self.stop.set()
+        self.thread.join()
+
+
+def test_a_worker_killed_as_it_starts_a_chunk_is_survived(tmp_path, reference, capsys):
+    """One of the two workers killed (-9) as soon as it holds the run's shared inputs and is
+    given a chunk: the run completes on the other worker and its store holds the values of
+    the run on this process's threads (the independent computation), bit for bit."""
+    own = Cluster(tmp_path / "home")
+    try:
+        killer = KillOnChunk(own)
+        out = tmp_path / "run.zarr"
+        code, err = pasim(capsys, *RUN, "--scheduler", own.address, "--out", str(out))
+        killer.join()
+        assert killer.killed is not None, "no worker was given a chunk while holding the inputs"
+        assert code == 0, err
+        assert own.workers[int(killer.killed[1:])].wait() == -signal.SIGKILL
+    finally:
+        own.close()
+    same_sweep(out, reference)
+
+
 def test_workers_that_do_not_share_the_folder_are_refused_before_anything_is_written(
     tmp_path, cluster, capsys, monkeypatch
 ):
@@ -297,14 +355,6 @@ def test_a_worker_killed_mid_study_is_survived_with_the_same_scores(tmp_path, ti
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="a run's scattered inputs are not recomputable: distributed's active memory "
-    "manager drops their broadcast replicas to one (ReduceReplicas), and when the worker "
-    "holding the last copy dies its chunk is cancelled ('lost dependencies') and reported "
-    "as a lost scheduler; failed 4 times of 4 on 2026-11-28 (twice that, twice a hang, "
-    "once of them with the memory manager off): see docs/scaling.md, 'A worker lost mid-run'",
-)
 def test_a_worker_killed_while_it_holds_a_chunk_is_survived(tmp_path, tiny_study):
     """One of the two workers killed (-9) as soon as the scheduler has given it a chunk:
     dask should rerun that chunk on the other worker and the study complete with the
