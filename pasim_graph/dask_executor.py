@@ -162,23 +162,28 @@ class SchedulerError(RuntimeError):
     """The scheduler named for a run cannot be reached or understood."""
 
 
-def check_storage(scheduler: str, target: str | Path) -> None:
+def check_storage(scheduler: str, target: str | Path, client: Any = None) -> None:
     """Before anything is written: refuse (:class:`SchedulerError`, one line) the cluster at
     ``scheduler`` if one of its workers does not read and write ``target``'s folder as this
-    process does (:mod:`pasim_graph.shared_storage`). ``target`` is the path as the chunk
-    tasks get it. A LocalCluster's workers (``--workers``) share this process's view."""
+    process does (:mod:`pasim_graph.shared_storage`; a relative ``target`` is taken from this
+    process's working folder, as the chunk tasks get it). ``client``: one already connected
+    to it (a study's), used and left open; else one is made for the check and closed. A
+    LocalCluster's workers (``--workers``) share this process's view."""
     from .shared_storage import StorageError, check_shared_storage
 
-    try:
-        client, _ = open_client(None, scheduler)
-    except OSError as exc:  # distributed's TimeoutError is one
-        raise SchedulerError(f"--scheduler {scheduler!r}: cannot connect ({exc})") from None
+    own = client is None
+    if own:
+        try:
+            client, _ = open_client(None, scheduler)
+        except OSError as exc:  # distributed's TimeoutError is one
+            raise SchedulerError(f"--scheduler {scheduler!r}: cannot connect ({exc})") from None
     try:
         check_shared_storage(client, target)
     except StorageError as exc:
         raise SchedulerError(str(exc)) from None
     finally:
-        client.close()
+        if own:
+            client.close()
 
 
 def _warm_up(classes: list[type[Block]]) -> None:
@@ -410,7 +415,7 @@ class DaskExecutor:
         path = Path(path)
         if self._client is None and self.scheduler not in (None, *LOCAL_SCHEDULERS):
             # Before the store is made: a worker that does not share its folder is refused.
-            check_storage(self.scheduler, path.parent)
+            check_storage(self.scheduler, path.absolute().parent)
         if resume:
             self.adopt_chunking(path)
         inputs = input_digests(self.graph)
@@ -555,8 +560,11 @@ class DaskExecutor:
                 raise Stopped(signal.SIGINT)
             keys = {i: chunk_key(key, path, i) for i in todo}
             if client is not None:
+                # Workers are given the store's absolute path: a relative one would be taken
+                # from each worker's own working folder (another folder on another machine).
+                where = str(path.absolute())
                 tasks = self._compute_distributed(
-                    client.result(), todo, keys, starts, static, str(path), attrs
+                    client.result(), todo, keys, starts, static, where, attrs
                 )
             else:
                 tasks = self._compute_local(todo, keys, starts, static, str(path), attrs)
