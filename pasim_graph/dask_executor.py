@@ -822,6 +822,7 @@ class DaskExecutor:
             FuturesCancelledError,
             CommClosedError,
             TimeoutError,
+            OSError,  # a record fetched as the scheduler goes away
         ) as exc:
             # The chunks written so far are kept and flagged; the rest are run by --resume,
             # on this cluster or another.
@@ -831,9 +832,9 @@ class DaskExecutor:
             where = self.scheduler or "the local cluster"
             if client.status == "running":
                 # The scheduler is there and cancelled a chunk itself.
-                reason = getattr(exc, "reason", None) or "reason unknown"
+                reason = getattr(exc, "reason", None) or "unknown"
                 raise SchedulerError(
-                    f"the scheduler ({where}) cancelled a chunk ({reason}); the chunks "
+                    f"the scheduler ({where}) cancelled a chunk (reason: {reason}); the chunks "
                     "written are kept: complete the store with --resume (any cluster, or none)"
                 ) from None
             raise SchedulerError(
