@@ -185,15 +185,20 @@ class KillOnChunk:
 
         self.cluster, self.limit_s = cluster, limit_s
         self.killed: str | None = None
-        self.stop = threading.Event()
+        self.stop, self.ready = threading.Event(), threading.Event()
         self.thread = threading.Thread(target=self._watch, daemon=True)
         self.thread.start()
+        # Watching before the run starts: a client made while the run sets up could come
+        # too late (its chunks all done).
+        if not self.ready.wait(60):
+            pytest.fail("the watching client did not connect in 60 s")
 
     def _watch(self) -> None:
         from distributed import Client
 
         with Client(self.cluster.address, timeout="10s") as watch:
             names = {a: w["name"] for a, w in watch.scheduler_info()["workers"].items()}
+            self.ready.set()
             deadline = time.monotonic() + self.limit_s
             while not self.stop.is_set() and time.monotonic() < deadline:
                 holders = {
