@@ -315,14 +315,14 @@ def plot_calibration(runs: Path, out: Path) -> dict:
 
 def plot_crosspol(out: Path) -> dict:
     """ZDR bias against the element leakage through the weather channel and the processor
-    (the uniform medium of tests/test_crosspol.py), SHV at its worst transmit phase and AHV,
+    (the uniform medium of tests/weather/test_crosspol.py), SHV at its worst transmit phase and AHV,
     with the exact bias of the coincident-pattern model and Zrnic et al.'s first order."""
     import sys
 
     import matplotlib.pyplot as plt
 
     sys.path.insert(0, str(ROOT))
-    from tests.test_crosspol import (
+    from tests.weather.test_crosspol import (
         PHIDP_DEG,
         RHO,
         ZDR_DB,
@@ -333,7 +333,7 @@ def plot_crosspol(out: Path) -> dict:
         with_antenna,
         worst_beta,
     )
-    from tests.test_polarimetry import closed_form_bias_db, first_order_bias_db
+    from tests.weather.test_polarimetry import closed_form_bias_db, first_order_bias_db
 
     levels = np.arange(-45.0, -19.0, 2.5)  # the first-order formula fails beyond -20 dB
     inputs = scene()

@@ -16,7 +16,7 @@ import numpy as np
 from pasim_blocks.weather.channel import WeatherChannel
 
 from pasim_graph import Chunk
-from tests.test_block_weather import chain_inputs, uniform_truth
+from tests.weather.test_block_weather import chain_inputs, uniform_truth
 
 
 def main() -> None:

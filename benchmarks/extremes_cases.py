@@ -6,7 +6,7 @@ Runs each case through `pasim run` on graphs/uniform_ideal.yaml (40 beams x 100 
 1024-pulse case on 10 beams) or graphs/core_contamination.yaml, seed 0, and prints one JSON
 line per case: the settings, the wall time and peak resident memory of the run, and
 `pasim score --json` (bias, std, count, unestimated and scored gates per moment).
-`tests/test_extremes.py` checks the same cases against theory on 10 beams.
+`tests/end_to_end/test_extremes.py` checks the same cases against theory on 10 beams.
 """
 
 from __future__ import annotations

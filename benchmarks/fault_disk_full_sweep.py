@@ -1,7 +1,7 @@
 """Disk full at every single file write of a small run: each must end in exit 2, and the store
 must then complete (--resume) or be rerun to the same numbers.
 
-The unit test (tests/test_disk_full.py) samples a dozen write positions; this sweeps all of
+The unit test (tests/store/test_disk_full.py) samples a dozen write positions; this sweeps all of
 them (about 280 runs, 3-4 minutes on 2 cores). Run: python benchmarks/fault_disk_full_sweep.py
 """
 

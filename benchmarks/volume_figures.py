@@ -24,7 +24,7 @@ sys.path.insert(0, str(ROOT))
 from pasim_blocks.antennas.pencil import PencilBeamAntenna  # noqa: E402
 from pasim_blocks.truth.volume import beam_height  # noqa: E402
 
-from tests.test_volume_truth import beams_at, expected_dbz, volume_truth  # noqa: E402
+from tests.truth.test_volume_truth import beams_at, expected_dbz, volume_truth  # noqa: E402
 
 AZIMUTH = 299.75
 RANGES_KM = (68.0, 80.0, 104.0)

@@ -8,7 +8,8 @@ subsystem packages, in the order of the chain: :mod:`~pasim_blocks.waveforms` (t
 :mod:`~pasim_blocks.scans` (which beams), :mod:`~pasim_blocks.weather` (the echo),
 :mod:`~pasim_blocks.receivers` (filters, noise), :mod:`~pasim_blocks.processing` (moments,
 scores). Shared by several of them: :mod:`~pasim_blocks.signals` (port types and constants),
-:mod:`~pasim_blocks.angles` and :mod:`~pasim_blocks.cf`. :mod:`~pasim_blocks.commands` holds
+:mod:`~pasim_blocks.angles`; the FM-301 vocabulary (moment names, units, CF attributes) is the
+engine's :mod:`pasim_graph.fm301`. :mod:`~pasim_blocks.commands` holds
 the sub-commands that measure a graph (``pasim waveform``, ``pasim pattern``).
 """
 

@@ -7,34 +7,17 @@ library declares each signal once here and every block uses the same declaration
 from __future__ import annotations
 
 from pasim_graph import DATASET, Attr, PortType, Schema, Var
+from pasim_graph.fm301 import MOMENT_DOCS, MOMENT_UNITS
 
 SPEED_OF_LIGHT = 299_792_458.0  # m/s
 BOLTZMANN = 1.380_649e-23  # J/K
 T0_K = 290.0  # reference temperature of the noise figure
 KW2 = 0.93  # |K_w|^2 of liquid water at S band, as NEXRAD uses
 
-#: Units of the six moments, as the truth and the estimates carry them (CF/UDUNITS strings).
-MOMENT_UNITS = {
-    "DBZH": "dBZ",
-    "ZDR": "dB",
-    "RHOHV": "1",
-    "PHIDP": "degrees",
-    "VRADH": "m s-1",
-    "WRADH": "m s-1",
-}
-_MOMENT_DOCS = {
-    "DBZH": "reflectivity factor, H",
-    "ZDR": "differential reflectivity",
-    "RHOHV": "co-polar correlation coefficient",
-    "PHIDP": "differential phase",
-    "VRADH": "radial velocity, positive away",
-    "WRADH": "Doppler spectrum width",
-}
-
 
 def _moments(dims: tuple[str, ...], required: tuple[str, ...] = (), prefix: str = "") -> dict:
     return {
-        f"{prefix}{k}": Var("float32", dims, u, _MOMENT_DOCS[k], required=k in required)
+        f"{prefix}{k}": Var("float32", dims, u, MOMENT_DOCS[k], required=k in required)
         for k, u in MOMENT_UNITS.items()
     }
 
@@ -468,6 +451,3 @@ CORRELATION_PRODUCTS = (
 )
 #: The products an SHV processor uses (the first of CORRELATION_PRODUCTS).
 SHV_PRODUCTS = CORRELATION_PRODUCTS[:5]
-#: The moments a pulse-pair processor estimates, CfRadial names.
-MOMENT_FIELDS = ("DBZH", "ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH")
-POLARIMETRIC_FIELDS = ("ZDR", "RHOHV", "PHIDP")

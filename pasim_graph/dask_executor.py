@@ -35,42 +35,52 @@ import xarray as xr
 
 from .block import Block
 from .executor import LocalExecutor, RunOptions, chunks, merge_products
+from .fm301 import sweep_group
 from .graph import Graph
 from .interrupt import STOPPING, Stopped
 from .resources import (
     DiskFullError,
     Probe,
     ResourceError,
+    check_resources,
+    chunks_at_once,
+    disk_full_message,
     layout_bytes,
     stored_bytes,
     traced,
 )
-from .resume_key import ResumeError, input_digests, resume_mismatch, run_key
-from .run_checks import check_resources, chunks_at_once, damaged_chunks, disk_full_message
 from .scores import TIME_ON_TARGET, time_on_target
 from .store import (
     COMPLETE,
     DONE,
+    RelayError,
+    ResumeError,
     StoreLock,
     beam_dimension,
     clear_store,
     create_root,
     create_sweep,
+    damaged_chunks,
     describe_holder,
     discard_store,
+    input_digests,
     mark_complete,
     mark_incomplete,
+    missing_arrays,
     open_store,
+    relay_missing,
     replace_store,
+    resume_mismatch,
+    run_key,
     run_state,
+    some,
     split_volume,
     sweep_template,
+    volume_sweeps,
     write_region,
 )
-from .store_check import missing_arrays, some
-from .store_relay import RelayError, relay_missing
 from .sweep_stage import run_stored_stage, stage_arrays, stage_done
-from .sweeps import sweep_executors, sweep_group, volume_sweeps
+from .sweeps import sweep_executors
 from .task_record import TaskRecord
 
 __all__ = ["ResourceError", "ResumeError"]  # re-exported: the command line catches them here

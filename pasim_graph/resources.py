@@ -1,10 +1,12 @@
 """What a run will take before it runs: its store on disk, its chunks in memory, measured on
-its first beam; and the errors that refuse a run that would not fit."""
+its first beam; the checks and errors that refuse a run that would not fit, and what a disk
+that filled during the run left."""
 
 from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -13,6 +15,8 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+
+from .store import StoreLock, run_state
 
 
 class ResourceError(RuntimeError):
@@ -154,7 +158,7 @@ def layout_bytes(root: xr.Dataset, sweep: xr.Dataset, beam_dim: str) -> int:
     return 1536 * nodes + int(once) + int(sum(v.nbytes for v in root.variables.values()))
 
 
-#: How much more than its first-beam estimate a run may write (see _check_resources).
+#: How much more than its first-beam estimate a run may write (see check_resources).
 DISK_MARGIN = 1.5
 
 
@@ -165,3 +169,86 @@ def tree_bytes(path: Path) -> int:
             with contextlib.suppress(OSError):
                 total += os.lstat(os.path.join(dirpath, name)).st_size
     return total
+
+
+def disk_full_message(path: Path, n_chunks: int, estimate: int) -> str:
+    """One line: where a run found the disk full, what it kept and how to go on."""
+    state = run_state(path) if path.exists() else None
+    free = shutil.disk_usage(path if path.exists() else path.parent).free
+    where = "while creating the store"
+    if state is not None:
+        where = f"with {int(state[1].sum())} of {n_chunks} chunks written"
+    need = f"; the whole run writes about {gib(estimate)}" if estimate else ""
+    keep = (
+        "the store is kept: free space and complete it with --resume"
+        if state is not None
+        else "nothing was kept: free space and run it again"
+    )
+    return f"{path}: the disk is full ({where}; {gib(free)} free{need}); {keep}"
+
+
+def check_resources(
+    path: Path,
+    probes: list[tuple[Probe, int]],
+    lock: StoreLock,
+    *,
+    chunk_beams: int,
+    at_most: int | None,
+) -> int:
+    """Refuse a run whose products would not fit the disk, or whose chunks the memory.
+
+    ``probes`` holds each sweep's first-beam probe and its number of beams; ``at_most`` the
+    chunks that run at once (None: a remote cluster's, whose memory is not ours to judge).
+    Returns the bytes the store will take.
+    """
+    disk = sum(p.stored_bytes * n + p.layout_bytes for p, n in probes)
+    n_beams = sum(n for _, n in probes)
+    free = shutil.disk_usage(path).free
+    if lock.replacing:
+        free += tree_bytes(path)  # the store being replaced is freed before writing
+    # Beams compress differently (storm against clear air): the estimate was 0.74 to
+    # 1.08 of what the example graphs wrote on the bundled scene (0.28 for the uniform
+    # scene's sub-megabyte store; docs/reliability.md), so the run is refused unless a
+    # half more than the estimate fits.
+    if DISK_MARGIN * disk > free:
+        per_beam = sum(p.stored_bytes * n for p, n in probes) / max(n_beams, 1)
+        sweeps = f" in {len(probes)} sweeps" if len(probes) > 1 else ""
+        raise ResourceError(
+            f"this run would write about {gib(disk)} to {path} "
+            f"({gib(per_beam)} per beam x {n_beams} beams{sweeps}, compressed, plus "
+            f"its layout; up to {DISK_MARGIN:g}x that in beams full of echo) and "
+            f"{gib(free)} is free there; write fewer fields (--outputs, no --save-iq), "
+            "fewer beams, or choose another --out"
+        )
+    if at_most is None:
+        return disk
+    for probe, n in probes:
+        at_once = min(at_most, -(-n // chunk_beams))
+        beams = min(chunk_beams, n)
+        need = probe.shared_bytes + probe.working_bytes * beams * at_once
+        threads = ""
+        if address_space_limited() and at_once > 1:
+            need += THREAD_ADDRESS_SPACE * at_once
+            threads = f", plus {gib(THREAD_ADDRESS_SPACE * at_once)} of threads' address space"
+        available = memory_available()
+        if need > available:
+            raise ResourceError(
+                f"this run would need about {gib(need)} of memory ({gib(probe.working_bytes)} "
+                f"per beam x {beams} beams per chunk x {at_once} chunks at once, plus "
+                f"{gib(probe.shared_bytes)} shared{threads}) and {gib(available)} is available; "
+                "use a smaller --chunk or fewer --workers"
+            )
+    return disk
+
+
+def chunks_at_once(
+    workers: int | None, scheduler: str | None, local: tuple[str, ...]
+) -> int | None:
+    """How many chunks run at once in this process's memory (None: on a remote cluster)."""
+    if scheduler not in (None, *local):
+        return None
+    if workers:
+        return workers
+    if scheduler == "sync":
+        return 1
+    return os.cpu_count() or 1

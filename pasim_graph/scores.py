@@ -9,6 +9,8 @@ from typing import Any, TypeVar
 import numpy as np
 import xarray as xr
 
+from .fm301 import BEAM_DIMENSIONS, sweep_names
+
 #: The store attribute (root and each sweep) holding the time on target, in seconds.
 TIME_ON_TARGET = "pasim_time_on_target_s"
 
@@ -118,12 +120,6 @@ def no_truth(*sweeps: xr.Dataset) -> list[str]:
     return out
 
 
-def sweep_names(tree: xr.DataTree) -> list[str]:
-    """The FM-301 sweep groups of a volume, in order (``sweep_0``, ``sweep_1``, ...)."""
-    names = [str(n) for n in tree.children if str(n).startswith("sweep_")]
-    return sorted(names, key=lambda n: int(n.split("_", 1)[1]) if n[6:].isdigit() else 1 << 30)
-
-
 def volume_scores(tree: xr.DataTree) -> dict[str, Any]:
     """Each sweep's scores and time on target, and the volume's (scores pooled over every
     sweep's gates, time on target summed), as JSON-ready data."""
@@ -151,7 +147,7 @@ def _fixed_angle(ds: xr.Dataset) -> float | None:
 
 
 def _beam_dim(ds: xr.Dataset) -> str:
-    return next((d for d in ("azimuth", "elevation", "time") if d in ds.dims), "")
+    return next((d for d in BEAM_DIMENSIONS if d in ds.dims), "")
 
 
 def print_scores(

@@ -61,8 +61,7 @@ def write_stage(path: str, group: str, outputs: list[xr.Dataset], chunk_beams: i
     import xarray as xr
     import zarr
 
-    from .store import encoding, quiet_zarr_warnings
-    from .store_check import array_list
+    from .store import array_list, encoding, quiet_zarr_warnings
 
     node = zarr.open_group(str(path), path=group, mode="r+", use_consolidated=False)
     node.attrs.pop(STAGE_DONE, None)

@@ -57,31 +57,3 @@ def sweep_executors(graph: Graph, options: RunOptions) -> list[LocalExecutor]:
     """One executor per sweep of the graph's scan, sharing everything but the beam source."""
     base = LocalExecutor(graph, options)
     return [for_sweep(base, o, k) for k, o in enumerate(sweep_overrides(graph))]
-
-
-def sweep_group(index: int) -> str:
-    """The FM-301 group of the sweep at ``index``."""
-    return f"sweep_{index}"
-
-
-def volume_sweeps(sweeps: list[Any]) -> dict[str, Any]:
-    """The FM-301 root variables over the volume's sweeps (``sweeps``, xarray Datasets in
-    order): ``sweep_group_name`` and each sweep's ``sweep_fixed_angle``, along ``sweep``."""
-    import numpy as np
-    import xarray as xr
-
-    names = np.array([sweep_group(k) for k in range(len(sweeps))])
-    angles = np.array(
-        [
-            float(s["sweep_fixed_angle"].values) if "sweep_fixed_angle" in s else np.nan
-            for s in sweeps
-        ],
-        np.float64,
-    )
-    attrs = dict(sweeps[0]["sweep_fixed_angle"].attrs) if "sweep_fixed_angle" in sweeps[0] else {}
-    return {
-        "sweep_group_name": xr.Variable(
-            "sweep", names, {"long_name": "name of the group holding each sweep"}
-        ),
-        "sweep_fixed_angle": xr.Variable("sweep", angles, attrs),
-    }

@@ -6,7 +6,7 @@ The I/Q comes from the chain of ``graphs/uniform_clutter.yaml`` (uniform 30 dBZ 
 the receiver's output, which the processor turns into the moments the run stores. The
 independent GMAP reads the same I/Q and the receiver's noise power and turns its power into
 reflectivity with the weather channel's radar constant, as any processor does. Used by
-``tests/test_doppler_gmap_grid.py`` and ``benchmarks/gmap_grid.py``.
+``tests/processing/test_doppler_gmap_grid.py`` and ``benchmarks/gmap_grid.py``.
 """
 
 from __future__ import annotations

@@ -88,8 +88,7 @@ class StudyCommand:
             return self.report_only(args)
         StudyProblems = _problems_class()
         from pasim_graph.interrupt import StopMessage, Stopped, stop_on_signals
-        from pasim_graph.store import StoreError, StoreExistsError
-        from pasim_graph.store_check import NotAStoreError
+        from pasim_graph.store import NotAStoreError, StoreError, StoreExistsError
 
         from ..study.integrity import study_inputs
         from ..study.model import read_study

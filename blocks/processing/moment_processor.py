@@ -18,16 +18,9 @@ import numpy as np
 import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output, Param
+from pasim_graph.fm301 import MOMENT_FIELDS, POLARIMETRIC_FIELDS
 
-from ..signals import (
-    BEAMS,
-    CALIBRATION,
-    IQ,
-    MOMENT_FIELDS,
-    MOMENTS,
-    NOISE_POWER,
-    POLARIMETRIC_FIELDS,
-)
+from ..signals import BEAMS, CALIBRATION, IQ, MOMENTS, NOISE_POWER
 from .output import Censoring, moments_dataset, thresholds
 
 

@@ -14,9 +14,7 @@ import numpy as np
 import xarray as xr
 
 from pasim_graph import Chunk, Param
-
-from ..cf import cf_attributes
-from ..signals import MOMENT_UNITS, POLARIMETRIC_FIELDS
+from pasim_graph.fm301 import MOMENT_UNITS, POLARIMETRIC_FIELDS, cf_attributes
 
 
 class Censoring:

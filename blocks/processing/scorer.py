@@ -8,19 +8,10 @@ import numpy as np
 import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output, Param
+from pasim_graph.fm301 import MOMENT_UNITS, cf_attributes
 
 from ..angles import circular_difference, nearest_radial
-from ..cf import cf_attributes
-from ..signals import (
-    BEAMS,
-    CALIBRATION,
-    MOMENT_UNITS,
-    MOMENTS,
-    NOISE_POWER,
-    SCORES,
-    SIGNAL_POWER,
-    TRUTH,
-)
+from ..signals import BEAMS, CALIBRATION, MOMENTS, NOISE_POWER, SCORES, SIGNAL_POWER, TRUTH
 from ..truth.volume import beam_truth, is_volume
 
 #: NEXRAD data-quality requirements (paper Table 3): bias, standard deviation, units.

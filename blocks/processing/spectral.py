@@ -27,8 +27,9 @@ import numpy as np
 import scipy.signal
 
 from pasim_graph import Chunk, Output, Param
+from pasim_graph.fm301 import MOMENT_FIELDS
 
-from ..signals import MOMENT_FIELDS, MOMENTS
+from ..signals import MOMENTS
 from ..timing import cohere_first_trip
 from .gmap import (
     FIRST_LOOK_WINDOW,

@@ -17,16 +17,9 @@ from typing import Any
 import numpy as np
 
 from pasim_graph import Block, Chunk, Input, Output, Param
+from pasim_graph.fm301 import MOMENT_FIELDS
 
-from ..signals import (
-    BEAMS,
-    CALIBRATION,
-    IQ,
-    MOMENT_FIELDS,
-    MOMENTS,
-    NOISE_POWER,
-    SPEED_OF_LIGHT,
-)
+from ..signals import BEAMS, CALIBRATION, IQ, MOMENTS, NOISE_POWER, SPEED_OF_LIGHT
 from .output import Censoring
 from .pulse_pair import PulsePairProcessor
 

@@ -52,12 +52,9 @@ import numpy as np
 import scipy.signal
 
 from pasim_graph import Chunk, Output, Param
+from pasim_graph.fm301 import POLARIMETRIC_FIELDS
 
-from ..signals import (
-    MOMENTS,
-    POLARIMETRIC_FIELDS,
-    SPEED_OF_LIGHT,
-)
+from ..signals import MOMENTS, SPEED_OF_LIGHT
 from ..timing import transmit_phase
 from .gmap import clutter_shape
 from .moment_processor import MomentProcessor

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from pasim_graph.scores import sweep_names
+from pasim_graph.fm301 import sweep_names
 from pasim_graph.store import DONE, NotAStoreError, beam_dimension, open_finished
 
 __all__ = [

@@ -22,10 +22,9 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from pasim_graph.fm301 import MOMENT_FIELDS as MOMENTS
 from pasim_graph.outputs import write_atomic
 from pasim_graph.store import NotAStoreError, open_sweep
-
-from ..signals import MOMENT_FIELDS as MOMENTS
 
 __all__ = ["NotAStoreError", "open_sweep"]  # re-exported: the plot reads a run with them
 
@@ -388,7 +387,8 @@ def plot_store(
     ValueError
         None of the fields can be drawn.
     """
-    from pasim_graph.store import open_finished, root_attrs, summarize, sweep_names, sweep_of
+    from pasim_graph.fm301 import sweep_names
+    from pasim_graph.store import open_finished, root_attrs, summarize, sweep_of
 
     tree = open_finished(path)
     sweep, attrs = sweep_of(tree, path, sweep_index), root_attrs(tree)

@@ -8,13 +8,13 @@ import numpy as np
 import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output, Param
+from pasim_graph.fm301 import POLARIMETRIC_FIELDS
 
 from ..signals import (
     BOLTZMANN,
     IQ,
     IQ_CUBE,
     NOISE_POWER,
-    POLARIMETRIC_FIELDS,
     POLARIZATIONS,
     RANGE_RESPONSE,
     SIGNAL_POWER,

@@ -8,7 +8,17 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ..cf import CFAttributes
+from pasim_graph.fm301 import (
+    FOLLOW_MODE_NONE,
+    INSTRUMENT_RADAR,
+    PLATFORM_FIXED,
+    PRT_ATTRS,
+    PRT_MODE_FIXED,
+    PULSES_ATTRS,
+    SITE_VARIABLES,
+    TIME_ATTRS,
+    CFAttributes,
+)
 
 #: The start of a scan without a truth to take it from.
 EPOCH = np.datetime64("2000-01-01T00:00:00", "ns")
@@ -16,7 +26,7 @@ EPOCH = np.datetime64("2000-01-01T00:00:00", "ns")
 
 def truth_context(truth: xr.Dataset | None) -> tuple[np.datetime64, dict[str, float]]:
     """The scan's start (the truth's ``time_coverage_start``) and the site's position."""
-    site = {"latitude": 0.0, "longitude": 0.0, "altitude": 0.0}
+    site = dict.fromkeys(SITE_VARIABLES, 0.0)
     if truth is None:
         return EPOCH, site
     start = np.datetime64(str(truth.attrs.get("time_coverage_start", EPOCH)).rstrip("Z"), "ns")
@@ -46,7 +56,7 @@ def beam_dataset(
     end: np.datetime64,
     site: dict[str, float],
     rate_name: str = "azimuth rate of the scan",
-    prt_mode: str = "fixed",
+    prt_mode: str = PRT_MODE_FIXED,
 ) -> xr.Dataset:
     """The beams of one chunk: per-beam pointing, dwell start, PRT and scan rate, the sweep's
     FM-301 variables (``prt_mode`` "fixed", "staggered" or "dual"; ``follow_mode`` "none": a
@@ -57,24 +67,20 @@ def beam_dataset(
             "sweep_mode": ((), sweep_mode),
             "sweep_fixed_angle": ((), float(fixed_angle), dict(cf.elevation)),
             "prt_mode": ((), prt_mode),
-            "follow_mode": ((), "none"),
-            "prt": (
-                "beam",
-                np.asarray(prt, np.float64),
-                {"units": "seconds", "long_name": "pulse repetition time"},
-            ),
-            "pulses": ((), int(pulses), {"long_name": "pulses per dwell"}),
+            "follow_mode": ((), FOLLOW_MODE_NONE),
+            "prt": ("beam", np.asarray(prt, np.float64), dict(PRT_ATTRS)),
+            "pulses": ((), int(pulses), dict(PULSES_ATTRS)),
             # Volume metadata FM-301 asks for at the root (the store moves it there).
             "time_coverage_start": ((), iso(start)),
             "time_coverage_end": ((), iso(end)),
             "volume_number": ((), 0),
-            "platform_type": ((), "fixed"),
-            "instrument_type": ((), "radar"),
+            "platform_type": ((), PLATFORM_FIXED),
+            "instrument_type": ((), INSTRUMENT_RADAR),
         },
         coords={
             "azimuth": ("beam", np.asarray(azimuth, np.float64), dict(cf.azimuth)),
             "elevation": ("beam", np.asarray(elevation, np.float64), dict(cf.elevation)),
-            "time": ("beam", time, {"standard_name": "time"}),
+            "time": ("beam", time, dict(TIME_ATTRS)),
             **{k: ((), v) for k, v in site.items()},
         },
     )

@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from pasim_graph import Chunk, Param
+from pasim_graph.fm301 import PRT_MODE_FIXED, PRT_MODE_STAGGERED, SWEEP_MODE_PPI
 from pasim_graph.scores import mean_prt
 
 from ..angles import circular_difference, nearest_radial
@@ -163,12 +164,12 @@ class PPISector(PlatformParams, DwellScan):
             prt=np.full(beams.size, self.p["prt_s"]),
             pulses=int(self.p["pulses"]),
             scan_rate=np.full(beams.size, self.p["beam_spacing_deg"] / dwell),
-            sweep_mode="azimuth_surveillance",
+            sweep_mode=SWEEP_MODE_PPI,
             fixed_angle=float(self.p["elevation_deg"]),
             start=start,
             end=start + seconds(self.n_beams * dwell),
             site=site,
-            prt_mode="fixed" if self.p["stagger"] == "uniform" else "staggered",
+            prt_mode=PRT_MODE_FIXED if self.p["stagger"] == "uniform" else PRT_MODE_STAGGERED,
         )
         if moving:
             ds = carry(ds, self.p, (beams + 0.5) * dwell)

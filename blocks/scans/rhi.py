@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from pasim_graph import Chunk, Param
+from pasim_graph.fm301 import SWEEP_MODE_RHI
 
 from ..angles import nearest_radial
 from .beam_geometry import beam_dataset, seconds, site_and_start
@@ -79,7 +80,7 @@ class RHIScan(DwellScan):
             prt=np.full(beams.size, self.p["prt_s"]),
             pulses=int(self.p["pulses"]),
             scan_rate=np.full(beams.size, self.p["elevation_step_deg"] / dwell),
-            sweep_mode="rhi",
+            sweep_mode=SWEEP_MODE_RHI,
             fixed_angle=az,
             start=start,
             end=start + seconds(self.elevations.size * dwell),

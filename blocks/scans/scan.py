@@ -7,8 +7,8 @@ from __future__ import annotations
 from typing import Any
 
 from pasim_graph import Block, Input, Output, Param
+from pasim_graph.fm301 import cf_attributes
 
-from ..cf import cf_attributes
 from ..signals import BEAMS, TRUTH
 
 

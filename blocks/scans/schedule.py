@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from pasim_graph import Chunk, Param
+from pasim_graph.fm301 import SWEEP_MODE_STEERED
 
 from .beam_geometry import beam_dataset, seconds, site_and_start
 from .scan import Scan
@@ -218,7 +219,7 @@ class ScheduledScan(Scan):
                 prt=s.prt[rows],
                 pulses=int(s.pulses[self.rows[0]]),
                 scan_rate=None,
-                sweep_mode="electronic_steering",
+                sweep_mode=SWEEP_MODE_STEERED,
                 fixed_angle=float(np.median(s.elevation[self.rows])),
                 start=start,
                 end=start + seconds(s.duration),

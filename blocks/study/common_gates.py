@@ -38,13 +38,8 @@ class Store:
 def read_store(path: str | Path, sweep_index: int | None = None) -> Store:
     """One sweep of a finished store: ``sweep_index``, which a volume of several sweeps must
     name (comparing its first sweep alone would pass for the whole volume)."""
-    from pasim_graph.store import (
-        NotAStoreError,
-        open_finished,
-        root_attrs,
-        sweep_names,
-        sweep_of,
-    )
+    from pasim_graph.fm301 import sweep_names
+    from pasim_graph.store import NotAStoreError, open_finished, root_attrs, sweep_of
 
     path = Path(path)
     try:

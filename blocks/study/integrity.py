@@ -18,7 +18,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from pasim_graph.resume_key import file_digest
+from pasim_graph.store import file_digest
 
 from .model import Study
 from .plan import Run

@@ -361,9 +361,8 @@ def _read_cases(study: Study, node: yaml.Node, value: Any, base: Path) -> None:
 def _fields_problem(fields: Any) -> str | None:
     """What is wrong with a case's ``fields`` (moment -> the truth file's field), as the
     truth block's parameter of that name checks it."""
+    from pasim_graph.fm301 import MOMENT_FIELDS
     from pasim_graph.ports import Param
-
-    from ..signals import MOMENT_FIELDS
 
     return Param(None, type="mapping", choices=MOMENT_FIELDS, optional=True).check(fields)
 

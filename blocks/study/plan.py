@@ -29,7 +29,7 @@ from typing import Any
 
 from pasim_graph.graph import Graph, GraphError, resolve
 from pasim_graph.graphfile import BlockSpec, GraphSpec, Problem, read
-from pasim_graph.resume_key import input_paths
+from pasim_graph.store import input_paths
 
 from .model import Case, Study, System, point_name
 

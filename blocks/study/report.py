@@ -98,7 +98,9 @@ def case_truth_text(case: dict[str, Any] | None) -> str:
     )
 
 
-def _fmt(x: Any, digits: int = 3) -> str:
+def format_number(x: Any, digits: int = 3) -> str:
+    """A number as the report prints it: ``digits`` significant digits, integers with
+    thousands separators, "n/a" for None and non-finite values."""
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "n/a"
     if isinstance(x, int):
@@ -109,7 +111,7 @@ def _fmt(x: Any, digits: int = 3) -> str:
 def _ci(ci: Any) -> str:
     if not ci or any(v is None for v in ci):
         return "[n/a]"
-    return f"[{_fmt(ci[0])}, {_fmt(ci[1])}]"
+    return f"[{format_number(ci[0])}, {format_number(ci[1])}]"
 
 
 def _store(out: Path, system: str, case: str, point: str, seed: int) -> Path:
@@ -134,7 +136,7 @@ def _systems(scores: dict[str, Any]) -> list[str]:
     return [k for k in scores if not k.startswith("_")]
 
 
-def _products(scores: dict[str, Any], systems: list[str], case: str) -> list[str]:
+def product_names(scores: dict[str, Any], systems: list[str], case: str) -> list[str]:
     """The algorithm products any system of the case scored (``algorithm.*`` blocks), in the
     order of their first appearance."""
     names: dict[str, None] = {}
@@ -144,7 +146,7 @@ def _products(scores: dict[str, Any], systems: list[str], case: str) -> list[str
     return list(names)
 
 
-def _summary(
+def summary_rows(
     scores: dict[str, Any],
     systems: list[str],
     case: str,
@@ -167,19 +169,19 @@ def _summary(
                 cells.append(
                     {
                         "system": system if point == "-" else f"{system} ({point})",
-                        "std": _fmt(s["std"]),
+                        "std": format_number(s["std"]),
                         "std_noise_ci": _ci((s.get("noise_ci") or {}).get("std")),
                         "std_scene_ci": _ci((s.get("scene_ci") or {}).get("std", s["std_ci"])),
-                        "robust": _fmt(s["robust_std"]),
-                        "bias": _fmt(s["bias"]),
+                        "robust": format_number(s["robust_std"]),
+                        "bias": format_number(s["bias"]),
                         "bias_noise_ci": _ci((s.get("noise_ci") or {}).get("bias")),
                         "bias_scene_ci": _ci((s.get("scene_ci") or {}).get("bias", s["bias_ci"])),
-                        "count": _fmt(s["count"]),
+                        "count": format_number(s["count"]),
                         "pass": bool(s["pass"]),
-                        "reference_std": _fmt(ref.get("std")),
-                        "own_std": _fmt((s.get("own_expected") or {}).get("std")),
-                        "common_std": _fmt(com.get("std")),
-                        "common_count": _fmt(com.get("count")),
+                        "reference_std": format_number(ref.get("std")),
+                        "own_std": format_number((s.get("own_expected") or {}).get("std")),
+                        "common_std": format_number(com.get("std")),
+                        "common_count": format_number(com.get("count")),
                         "common_pass": com.get("pass"),
                     }
                 )
@@ -242,11 +244,11 @@ def _pair_row(r: dict[str, Any]) -> dict[str, Any]:
     return {
         "a": r["a"],
         "b": r["b"],
-        "difference": _fmt(r["difference"]),
+        "difference": format_number(r["difference"]),
         "noise_ci": _ci(r["noise_ci"]),
         "scene_ci": _ci(r["scene_ci"]),
         "unpaired_ci": _ci(r["unpaired_scene_ci"]),
-        "ratio": _fmt(r["paired_over_unpaired"], 2),
+        "ratio": format_number(r["paired_over_unpaired"], 2),
         "verdict": said,
     }
 
@@ -264,8 +266,11 @@ def _budget_rows(scores: dict[str, Any], systems: list[str], case: str) -> list[
                         "system": system if point == "-" else f"{system} ({point})",
                         "field": name,
                         "units": fields[name].get("units", ""),
-                        **{k: _fmt(b.get(k)) for k in (*PARTS, "bias", "total", "quadrature_sum")},
-                        "count": _fmt(b.get("count")),
+                        **{
+                            k: format_number(b.get(k))
+                            for k in (*PARTS, "bias", "total", "quadrature_sum")
+                        },
+                        "count": format_number(b.get("count")),
                         "adds_up": b.get("adds_up"),
                         "note": b.get("note", ""),
                         "largest": max(PARTS, key=lambda k: b.get(k) or 0.0),
@@ -497,8 +502,8 @@ def build(out: Path) -> dict[str, Any]:
             cases.setdefault(case, CaseReport(case, []))
     for case, rep in cases.items():
         rep.truth = case_truth_text(meta.get("cases", {}).get(case))
-        rep.table = _summary(scores, systems, case)
-        rep.products = _summary(scores, systems, case, _products(scores, systems, case))
+        rep.table = summary_rows(scores, systems, case)
+        rep.products = summary_rows(scores, systems, case, product_names(scores, systems, case))
         rep.rankings = _rankings(scores, case)
         rep.budget_rows = _budget_rows(scores, systems, case)
         fig = budget_figure(scores, systems, case)

@@ -136,8 +136,7 @@ def finished(path: Path) -> bool:
 
     Marked complete, not only every chunk done: a run in flight (a study's runs at once)
     has every chunk done a moment before its last write, and cannot be read until then."""
-    from pasim_graph.store import COMPLETE, is_store, run_state
-    from pasim_graph.store_check import missing_arrays
+    from pasim_graph.store import COMPLETE, is_store, missing_arrays, run_state
 
     if not path.exists() or not is_store(path):
         return False
@@ -276,8 +275,7 @@ def check_stores(study: Study, runs: list[Run], out: Path, state: dict[str, Any]
     store, which is left as it is."""
     from pasim_graph.dask_executor import DaskExecutor
     from pasim_graph.executor import RunOptions
-    from pasim_graph.resume_key import run_key
-    from pasim_graph.store import is_store, run_state
+    from pasim_graph.store import is_store, run_key, run_state
 
     from .integrity import store_mismatch
 

@@ -30,9 +30,9 @@ from typing import Any
 
 import numpy as np
 
+from pasim_graph.fm301 import MOMENT_FIELDS
 from pasim_graph.serialize import json_safe
 
-from ..signals import MOMENT_FIELDS
 from .intervals import (
     BOOTSTRAP,
     block_sums,

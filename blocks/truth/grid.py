@@ -12,8 +12,9 @@ import numpy as np
 import xarray as xr
 
 from pasim_graph import Block, Chunk, Output, Param, RunNote
+from pasim_graph.fm301 import MOMENT_FIELDS
 
-from ..signals import MOMENT_FIELDS, TRUTH
+from ..signals import TRUTH
 from .gridding import clean_fields, sector_order
 from .nexrad import truth_dataset
 from .nexrad_io import TruthSweep

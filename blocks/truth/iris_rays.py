@@ -68,7 +68,7 @@ def keep_iris_rays_in_order() -> str:
     """Make xradar's IRIS reader keep each ray with its own header; returns what was found:
     ``"in order"`` (nothing changed), ``"corrected"`` (the rotation is undone) or
     ``"unknown"`` (the method could not be probed; left as it is, and
-    ``tests/test_iris_azimuth.py`` tells whether it pairs rays rightly). Idempotent."""
+    ``tests/truth/test_iris_azimuth.py`` tells whether it pairs rays rightly). Idempotent."""
     with _LOCK:
         if "state" in _STATE:
             return _STATE["state"]

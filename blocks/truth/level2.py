@@ -18,8 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from ..signals import MOMENT_FIELDS
-from ..signals import POLARIMETRIC_FIELDS as SIGNAL_POLARIMETRIC_FIELDS
+from pasim_graph.fm301 import MOMENT_FIELDS
+from pasim_graph.fm301 import POLARIMETRIC_FIELDS as SIGNAL_POLARIMETRIC_FIELDS
+
 from .level2_file import (
     MSG_HEADER,
     VOLUME_HEADER,

@@ -10,9 +10,10 @@ import numpy as np
 import xarray as xr
 
 from pasim_graph import Block, Chunk, Output, Param, RunNote
+from pasim_graph.fm301 import MOMENT_FIELDS, MOMENT_UNITS
 
 from .. import DEFAULT_SCENE
-from ..signals import MOMENT_FIELDS, MOMENT_UNITS, TRUTH
+from ..signals import TRUTH
 from .volume import INTERPOLATIONS, covered, select_angles, volume_variables
 
 

@@ -26,8 +26,9 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from pasim_graph.fm301 import MOMENT_UNITS
+
 from ..angles import circular_difference, nearest_radial
-from ..signals import MOMENT_UNITS
 
 #: Effective earth radius factor of the standard atmosphere, and the earth's mean radius (m).
 K_EARTH = 4.0 / 3.0

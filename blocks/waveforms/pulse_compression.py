@@ -14,7 +14,7 @@ import numpy as np
 # Below this many multiply-adds scipy.signal.convolve always convolves directly, through
 # np.convolve (its cost model for 1-D "full" picks the FFT only above about 4.7e6 products):
 # calling np.convolve there gives the same numbers without importing scipy.signal (about
-# 0.4 s of every run's start-up). Checked against scipy in tests/test_waveforms.py.
+# 0.4 s of every run's start-up). Checked against scipy in tests/waveforms/test_waveforms.py.
 DIRECT_PRODUCTS = 4_000_000
 
 

@@ -8,6 +8,7 @@ import numpy as np
 import xarray as xr
 
 from pasim_graph import Block, Chunk, Input, Output, Param
+from pasim_graph.fm301 import POLARIMETRIC_FIELDS
 
 from ..angles import circular_difference
 from ..propagation.path import (
@@ -25,7 +26,6 @@ from ..signals import (
     IQ,
     KW2,
     PATTERN,
-    POLARIMETRIC_FIELDS,
     POLARIZATIONS,
     RANGE_RESPONSE,
     SHV_PRODUCTS,

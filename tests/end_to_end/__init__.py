@@ -1,0 +1,1 @@
+"""Whole runs through the command line: ``pasim run``, ``score``, ``plot``, ``tradeoff``."""

@@ -1,0 +1,1 @@
+"""Tests of the executors (pasim_graph): dask chunks and clusters, signals, sweep-level stages."""

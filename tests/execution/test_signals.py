@@ -1,0 +1,90 @@
+"""SIGINT (Ctrl-C) and SIGTERM end a run with one line and exit 130 / 143, never a traceback.
+
+A real ``pasim run`` subprocess is signalled once some chunks are written: it exits with 128 +
+the signal's number, says how many chunks it kept and how to go on, releases its lock (no
+lock file is left), and ``--resume`` completes a store identical to an uninterrupted run's.
+Ctrl-C pressed twice in quick succession gives the same clean end.
+"""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from pasim_graph.cli import main
+from pasim_graph.store import LOCK, run_state
+
+from ..conftest import GRAPHS, ROOT, same_sweep
+
+RUN = ["run", str(GRAPHS / "uniform_ideal.yaml"), "--set", "scan.azimuth_stop_deg=30"]
+RUN += ["--chunk", "1", "--seed", "12"]
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    out = tmp_path_factory.mktemp("ref") / "ref.zarr"
+    assert main([*RUN, "--out", str(out)]) == 0
+    return out
+
+
+@pytest.mark.parametrize(
+    "signals", [[signal.SIGINT], [signal.SIGTERM], [signal.SIGINT, signal.SIGINT]], ids=str
+)
+def test_a_signalled_run_ends_cleanly_and_resumes(tmp_path, reference, capsys, signals):
+    out = tmp_path / "run.zarr"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pasim_graph", *RUN, "--out", str(out)],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        state = run_state(out) if out.exists() else None
+        if state is not None and 2 <= state[1].sum() < state[1].size - 5:
+            break
+        if proc.poll() is not None:
+            pytest.fail("the run finished before it could be signalled")
+        time.sleep(0.01)
+    for sig in signals:
+        proc.send_signal(sig)
+        time.sleep(0.05)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 128 + signals[0], err
+    assert "Traceback" not in err, err
+    name = signal.Signals(signals[0]).name
+    assert f"stopped by {name}: " in err and "--resume" in err, err
+    assert not (out / LOCK).exists()
+    kept = int(run_state(out)[1].sum())
+    assert f" {kept} of " in err, err
+    assert main([*RUN, "--out", str(out), "--resume"]) == 0
+    same_sweep(out, reference)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=str)
+def test_the_studio_stops_on_a_signal_with_one_line(sig, tmp_path):
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pasim_graph", "studio", str(GRAPHS), "--port", "0"],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        for line in proc.stdout:
+            if "http://127.0.0.1:" in line:
+                break
+        else:
+            pytest.fail(f"the studio did not start: {proc.stderr.read()}")
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 128 + sig, err
+    assert f"studio stopped by {signal.Signals(sig).name}" in err and "Traceback" not in err, err

@@ -1,0 +1,1 @@
+"""Tests of blocks/propagation/ (pasim_blocks.propagation): the path at the radar's frequency."""

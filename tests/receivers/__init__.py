@@ -1,0 +1,2 @@
+"""Tests of blocks/receivers/ (pasim_blocks.receivers): receive filters, noise and the receiver's
+impairments."""

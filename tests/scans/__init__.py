@@ -1,0 +1,1 @@
+"""Tests of blocks/scans/ (pasim_blocks.scans): which beams, when, and from where."""

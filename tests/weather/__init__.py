@@ -1,0 +1,2 @@
+"""Tests of blocks/weather/ (pasim_blocks.weather): the echo through the weather channel at each
+fidelity level."""
