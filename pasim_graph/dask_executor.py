@@ -172,23 +172,28 @@ class SchedulerError(RuntimeError):
     """The scheduler named for a run cannot be reached or understood."""
 
 
-def check_storage(scheduler: str, target: str | Path) -> None:
+def check_storage(scheduler: str, target: str | Path, client: Any = None) -> None:
     """Before anything is written: refuse (:class:`SchedulerError`, one line) the cluster at
     ``scheduler`` if one of its workers does not read and write ``target``'s folder as this
-    process does (:mod:`pasim_graph.shared_storage`). ``target`` is the path as the chunk
-    tasks get it. A LocalCluster's workers (``--workers``) share this process's view."""
+    process does (:mod:`pasim_graph.shared_storage`; a relative ``target`` is taken from this
+    process's working folder, as the chunk tasks get it). ``client``: one already connected
+    to it (a study's), used and left open; else one is made for the check and closed. A
+    LocalCluster's workers (``--workers``) share this process's view."""
     from .shared_storage import StorageError, check_shared_storage
 
-    try:
-        client, _ = open_client(None, scheduler)
-    except OSError as exc:  # distributed's TimeoutError is one
-        raise SchedulerError(f"--scheduler {scheduler!r}: cannot connect ({exc})") from None
+    own = client is None
+    if own:
+        try:
+            client, _ = open_client(None, scheduler)
+        except OSError as exc:  # distributed's TimeoutError is one
+            raise SchedulerError(f"--scheduler {scheduler!r}: cannot connect ({exc})") from None
     try:
         check_shared_storage(client, target)
     except StorageError as exc:
         raise SchedulerError(str(exc)) from None
     finally:
-        client.close()
+        if own:
+            client.close()
 
 
 def _warm_up(classes: list[type[Block]]) -> None:
@@ -420,7 +425,7 @@ class DaskExecutor:
         path = Path(path)
         if self._client is None and self.scheduler not in (None, *LOCAL_SCHEDULERS):
             # Before the store is made: a worker that does not share its folder is refused.
-            check_storage(self.scheduler, path.parent)
+            check_storage(self.scheduler, path.absolute().parent)
         if resume:
             self.adopt_chunking(path)
         inputs = input_digests(self.graph)
@@ -565,8 +570,11 @@ class DaskExecutor:
                 raise Stopped(signal.SIGINT)
             keys = {i: chunk_key(key, path, i) for i in todo}
             if client is not None:
+                # Workers are given the store's absolute path: a relative one would be taken
+                # from each worker's own working folder (another folder on another machine).
+                where = str(path.absolute())
                 tasks = self._compute_distributed(
-                    client.result(), todo, keys, starts, static, str(path), attrs
+                    client.result(), todo, keys, starts, static, where, attrs
                 )
             else:
                 tasks = self._compute_local(todo, keys, starts, static, str(path), attrs)
@@ -758,18 +766,28 @@ class DaskExecutor:
         path: str,
         attrs: dict[str, Any],
     ) -> list[dict[str, Any] | None]:
-        from distributed import progress, wait
+        from distributed import as_completed
 
         if not todo:
             return []
         used = sorted({starts[i][0] for i in todo})
-        # Keys of this run's own (hash=False: fresh ones). The shared inputs go as one value
-        # ([static]): scatter takes a dict's own keys as the data's keys on the cluster, and
-        # every run's are the same ("mf", "range_response")...: with a study's runs in flight
-        # at once, one run's chunks computed with another run's inputs (the short-pulse
-        # reference got the sidelobe-free one's range response, silently).
-        local = {k: client.scatter(self.sweeps[k], broadcast=True, hash=False) for k in used}
-        [shared] = client.scatter([static], broadcast=True, hash=False)
+        # The shared inputs (each sweep's executor, the once-per-run blocks' outputs) go as
+        # tasks that return them (_given), not as scattered data: the scheduler keeps how to
+        # make them, so the worker holding them may be lost (distributed's memory manager
+        # keeps one copy of what the chunks still need) and they are made again on another.
+        # Scattered data it cannot make again: a worker lost while it held the last copy
+        # cancelled the chunks waiting for it ("lost dependencies"). Their keys are this
+        # run's own (a fresh token: never another run's in flight on the same cluster).
+        own = f"pasim-inputs-{os.urandom(8).hex()}"
+        import dask
+
+        # The inputs travel with their task through the scheduler: distributed warns above
+        # 10 MB (a run's inputs are megabytes to a few hundred: docs/scaling.md).
+        with dask.config.set({"distributed.admin.large-graph-warning-threshold": "64GiB"}):
+            local = {
+                k: client.submit(_given, _Box(self.sweeps[k]), key=f"{own}-sweep-{k}") for k in used
+            }
+            shared = client.submit(_given, _Box(static), key=f"{own}-static")
         futures = [
             client.submit(
                 _run_and_write,
@@ -787,34 +805,82 @@ class DaskExecutor:
         from distributed.client import FutureCancelledError, FuturesCancelledError
         from distributed.comm.core import CommClosedError
 
+        index = {f.key: i for f, i in zip(futures, todo, strict=True)}
+        records: dict[int, dict[str, Any] | None] = {}
+        failed: dict[int, Any] = {}
+        bar = _progress_bar(client, futures) if self.progress else None
         try:
-            # distributed's wait and progress find "the" client themselves (the latest one
-            # made in this process unless told): this run's is made this thread's current
-            # one. wait, not client.gather: it fetches nothing, so a scheduler lost ends it
-            # with the futures cancelled instead of an OSError fetching the results.
-            with client.as_current():
-                if self.progress:
-                    # distributed's text bar writes to standard output, which holds the
-                    # product (the score table): the bar goes to standard error.
-                    with contextlib.redirect_stdout(sys.stderr):
-                        progress(futures)
-                # Every chunk ends: a failed one leaves none writing behind the run's back.
-                wait(futures)
-            # Re-raises a failed chunk's error here.
-            return [f.result() for f in futures]
+            # Each chunk's record is taken as it ends and the chunk released: a worker lost
+            # afterwards holds nothing of it that the scheduler would run it again for (the
+            # records of chunks done stayed on their workers until all were done: a worker
+            # lost then re-ran its chunks already written). Every chunk ends before a failure
+            # is raised: none is left writing behind the run's back.
+            # The client's own loop: as_completed would take the latest client made in
+            # this process (a study's runs share one; a test may watch with another).
+            for future in as_completed(futures, loop=client.loop):
+                i = index[future.key]
+                if future.status == "finished":
+                    records[i] = future.result()
+                    future.release()
+                else:
+                    failed[i] = future
+            if failed:
+                failed[min(failed)].result()  # raises the chunk's error (or its cancelling)
+            return [records[i] for i in todo]
         except (
             FutureCancelledError,
             FuturesCancelledError,
             CommClosedError,
             TimeoutError,
+            OSError,  # a record fetched as the scheduler goes away
         ) as exc:
-            # The scheduler went away (or the client lost it): the chunks written so far are
-            # kept and flagged; the rest are run by --resume, on this cluster or another.
+            # The chunks written so far are kept and flagged; the rest are run by --resume,
+            # on this cluster or another.
             cancelled = (FutureCancelledError, FuturesCancelledError)
             if client.status == "running" and not isinstance(exc, cancelled):
                 raise
             where = self.scheduler or "the local cluster"
+            if client.status == "running":
+                # The scheduler is there and cancelled a chunk itself.
+                reason = getattr(exc, "reason", None) or "unknown"
+                raise SchedulerError(
+                    f"the scheduler ({where}) cancelled a chunk (reason: {reason}); the chunks "
+                    "written are kept: complete the store with --resume (any cluster, or none)"
+                ) from None
             raise SchedulerError(
                 f"lost the connection to the scheduler ({where}) during the run; the chunks "
                 "written are kept: complete the store with --resume (any cluster, or none)"
             ) from None
+        finally:
+            if bar is not None:
+                bar.join(timeout=1.0)
+
+
+class _Box:
+    """What a run's shared inputs travel in to their task: opaque to dask (a dict's values
+    are not looked into for keys and tasks)."""
+
+    def __init__(self, value: Any):
+        self.value = value
+
+
+def _given(box: _Box) -> Any:
+    """A task that makes a run's shared input: the value it was given (on a worker)."""
+    return box.value
+
+
+def _progress_bar(client: Any, futures: list[Any]) -> Any:
+    """distributed's text progress bar for ``futures``, drawn from a thread of its own (it
+    blocks until they end) on standard error: standard output holds the product (the score
+    table)."""
+    import threading
+
+    from distributed import progress
+
+    def draw() -> None:
+        with contextlib.suppress(Exception), contextlib.redirect_stdout(sys.stderr):
+            progress(futures, scheduler=client.scheduler.address)
+
+    thread = threading.Thread(target=draw, name="pasim-progress", daemon=True)
+    thread.start()
+    return thread

@@ -2,9 +2,10 @@
 store's folder with this process.
 
 Workers write their chunks straight into the store, so ``--out`` must name the same folder
-for this process and every worker (a shared file system, and the same path on each: a
-relative path is taken from each process's own working folder). A worker that sees another
-folder would write its chunks where nobody reads them, or fail half way through the run.
+for this process and every worker (a shared file system, and the same path on each). A
+relative ``--out`` is made absolute in this process (from its working folder) before the
+check and before any chunk task is given it. A worker that sees another folder would write
+its chunks where nobody reads them, or fail half way through the run.
 
 :func:`check_shared_storage` proves it both ways with probe files: this process writes one
 with a fresh token, each worker reads it back (it sees this process's writes) and writes one
@@ -73,8 +74,9 @@ def remove_on_worker(folder: str, token: str, dask_worker: Any = None) -> None:
 def check_shared_storage(client: Any, target: str | Path) -> None:
     """Refuse (:class:`StorageError`, one line naming the worker and the folder) a cluster
     one of whose workers does not share ``target``'s folder (:func:`probe_folder`) with this
-    process. ``target`` is the path exactly as the chunk tasks will be given it."""
-    folder = probe_folder(target)
+    process. A relative ``target`` is taken from this process's working folder, as the
+    chunk tasks are given it (:class:`~pasim_graph.dask_executor.DaskExecutor`)."""
+    folder = probe_folder(Path(target).absolute())
     token = secrets.token_hex(8)
     ours = folder / f"{PREFIX}{token}"
     try:
@@ -106,13 +108,8 @@ def check_shared_storage(client: Any, target: str | Path) -> None:
     if problems:
         address, problem = next(iter(problems.items()))
         more = f" (and {len(problems) - 1} more worker(s))" if len(problems) > 1 else ""
-        hint = (
-            "; a relative path is taken from each worker's own working folder: give an absolute one"
-            if not Path(target).is_absolute()
-            else ""
-        )
         raise StorageError(
-            f"worker {address}{more} does not share the store's folder {folder.resolve()}: it "
+            f"worker {address}{more} does not share the store's folder {folder}: it "
             f"{problem}; every worker must read and write --out as this process does (a "
-            f"shared file system){hint}"
+            f"shared file system, the same path on every machine)"
         )

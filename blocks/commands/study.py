@@ -13,6 +13,7 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 #: Seconds between two writings of scores.json while a study runs (it is always written at
 #: the end, and when the study is stopped).
@@ -78,6 +79,7 @@ class StudyCommand:
             SchedulerError,
             check_scheduler,
             check_storage,
+            open_client,
         )
         from pasim_graph.executor import BlockError
         from pasim_graph.steering import SteeringError
@@ -126,17 +128,27 @@ class StudyCommand:
         if args.workers is not None and (args.workers < 1 or (cores and args.workers > cores)):
             raise UserError(f"--workers {args.workers}: give 1 to {cores or 'the cores'}")
         out = Path(args.out)
+        client = None  # the study's one client to an external scheduler: closed here
         if args.scheduler:
             try:
                 check_scheduler(args.scheduler)
                 if args.scheduler not in LOCAL_SCHEDULERS:
-                    # Before the study's folder is made: its workers must share it.
-                    check_storage(args.scheduler, out)
+                    try:
+                        client, _ = open_client(None, args.scheduler)
+                    except OSError as exc:  # distributed's TimeoutError is one
+                        raise SchedulerError(
+                            f"--scheduler {args.scheduler!r}: cannot connect ({exc})"
+                        ) from None
+                    # Before the study's folder is made: its workers must share it. The
+                    # study then runs on the same client.
+                    check_storage(args.scheduler, out, client)
             except SchedulerError as exc:
+                _close(client)
                 raise UserError(str(exc)) from None
         try:
             state = take_folder(out, study, args.resume, study_inputs(study, runs))
         except StudyError as exc:
+            _close(client)
             raise UserError(str(exc)) from None
 
         latest: dict = {}
@@ -179,6 +191,7 @@ class StudyCommand:
                     scheduler=args.scheduler,
                     progress=args.progress,
                     after_run=after_run,
+                    client=client,
                 )
         except Stopped as exc:
             warn_unscored()
@@ -200,6 +213,8 @@ class StudyCommand:
             SchedulerError,
         ) as exc:
             raise UserError(str(exc)) from None
+        finally:
+            _close(client)
         try:
             rescore()
         except (StudyError, NotAStoreError) as exc:
@@ -240,6 +255,11 @@ class StudyCommand:
             raise UserError(str(exc)) from None
         print(f"wrote {path}", file=sys.stderr)
         return 0
+
+
+def _close(client: Any) -> None:
+    if client is not None:
+        client.close()
 
 
 COMMAND = StudyCommand()

@@ -11,11 +11,11 @@ and a further run starts only while :data:`RUN_MEMORY` is available to this proc
 run in flight holds its inputs here, and a copy of them on every worker).
 
 Each run runs in a thread of this process, on the study's one client (made, warmed up and
-closed by the study in the calling thread: no run thread makes a client); everything else
-stays in the calling thread and
-in the study's order (:func:`in_order`): building a run's graph, recording the runs as they
-finish (the manifest, the antenna figures, the scores), so that the study, its manifest and
-its report are those of the runs one after another.
+closed by the study in the calling thread, or with ``--scheduler`` by the command, which
+checks the shared storage on it first: no run thread makes a client); everything else stays
+in the calling thread and in the study's order (:func:`in_order`): building a run's graph,
+recording the runs as they finish (the manifest, the antenna figures, the scores), so that
+the study, its manifest and its report are those of the runs one after another.
 """
 
 from __future__ import annotations

@@ -311,6 +311,7 @@ def execute(
     after_run: Callable[[], None],
     log: Callable[[str], None] = lambda s: print(s, file=sys.stderr),
     at_once: int | None = None,
+    client: Any = None,
 ) -> dict[str, Any]:
     """Run every store not yet finished; call ``after_run`` as each one finishes.
 
@@ -321,7 +322,9 @@ def execute(
     The study makes one client (and, with ``workers``, one LocalCluster), here in the calling
     thread, and every run uses it: no run makes, warms up or closes a client of its own. One
     client per run, made from the runs' threads at once, was seen to hang a study (8 runs
-    laid out, none of them sending its inputs to the cluster, for 19 min).
+    laid out, none of them sending its inputs to the cluster, for 19 min). ``client``: one
+    already connected to ``scheduler`` (the command's, which checked the shared storage on
+    it), used instead and left open.
     """
     from pasim_graph.dask_executor import (
         LOCAL_SCHEDULERS,
@@ -338,7 +341,7 @@ def execute(
 
     t_start = time.perf_counter()
     todo = check_stores(study, runs, out, state)
-    client: Any = None
+    given = client is not None
     cluster: Any = None
     warmed: set[type] = set()  # block classes the workers have been sent to warm up
     kept = len(runs) - len(todo)
@@ -393,7 +396,7 @@ def execute(
         ensure_patterns(study, runs, out, state, log, frozenset(pending[computed:]))
         after_run()
 
-    if todo and (workers or scheduler not in (None, *LOCAL_SCHEDULERS)):
+    if todo and not given and (workers or scheduler not in (None, *LOCAL_SCHEDULERS)):
         client, cluster = open_client(workers, scheduler)
         if cluster is not None:
             scheduler = cluster.scheduler_address
@@ -401,7 +404,7 @@ def execute(
         limit = at_once if at_once is not None else runs_at_once(client)
         in_order(todo, start, record, limit, lambda: memory_available() >= RUN_MEMORY)
     finally:
-        if client is not None:
+        if client is not None and not given:
             client.close()
         if cluster is not None:
             cluster.close()

@@ -2,16 +2,18 @@
 (distributed's own command line, on loopback), against the same work done in this machine's
 threads, and the check that every worker shares the store's folder before anything is written.
 
-* ``pasim run --scheduler ADDR``: the store holds the values of a run on this machine's
-  threads, bit for bit (the draws are keyed by seed, block and beam, not by where a chunk ran).
+* ``pasim run --scheduler ADDR`` (``--out`` relative, the workers in another working
+  folder: it is made absolute here): the store holds the values of a run on this machine's
+  threads, bit for bit (the draws are keyed by seed, block and beam, not by where a chunk ran);
+  and the same with the worker that holds the run's inputs killed (-9) as it starts a chunk.
 * ``pasim study --scheduler ADDR`` (slow): every store and ``scores.json`` are the serial
-  study's; and with one of the two workers killed (-9) as the first run's chunks start,
-  the study goes on on the other and ends with the same scores. Killed while it holds a
-  chunk, the study fails today (an expected failure, strict: see its reason).
-* A cluster whose workers do not see the folder this process writes (started in another
-  working folder, ``--out`` given relative: a stand-in for a worker on a machine without the
-  shared file system) is refused before anything is written: exit 2, one line naming the
-  worker and the folder.
+  study's; and with one of the two workers killed (-9) as the first run's chunks start, or
+  as soon as it is given a chunk, the study goes on on the other and ends with the same
+  scores.
+* A cluster whose workers do not see the folder this process writes (an empty file system
+  mounted over it in their own mount namespace, ``unshare``: a stand-in for a worker on a
+  machine without the shared file system) is refused before anything is written: exit 2, one
+  line naming the worker and the folder.
 """
 
 from __future__ import annotations
@@ -51,7 +53,7 @@ class Cluster:
     """``dask scheduler`` and two single-threaded ``dask worker`` processes (no nanny: the
     process killed is the worker itself), started in ``home`` and torn down by :meth:`close`."""
 
-    def __init__(self, home: Path, workers: int = 2):
+    def __init__(self, home: Path, workers: int = 2, hide: Path | None = None):
         home.mkdir(parents=True, exist_ok=True)
         self.home = home
         port = free_port()
@@ -65,6 +67,8 @@ class Cluster:
             for i in range(workers):
                 args = [*WORKER, self.address, "--nthreads", "1", "--no-nanny"]
                 args += ["--no-dashboard", "--name", f"w{i}"]
+                if hide is not None:
+                    args = [*unshared(hide), *args]
                 self.procs.append(self._start(home, f"worker{i}", env, args))
             self._wait(workers)
         except BaseException:
@@ -108,6 +112,31 @@ class Cluster:
                 proc.stderr.close()
 
 
+def unshared(hide: Path) -> list[str]:
+    """The command prefix that runs a process in a mount namespace of its own where ``hide``
+    is an empty file system (tmpfs): it sees the same path as this process, other contents."""
+    script = f'mount -t tmpfs pasim-hidden {hide} && exec "$@"'
+    return ["unshare", "--mount", "--propagation", "private", "sh", "-c", script, "sh"]
+
+
+@pytest.fixture(scope="module")
+def blind(tmp_path_factory) -> Iterator[tuple[Cluster, Path]]:
+    """A cluster whose workers see an empty folder where this process sees ``folder`` (the
+    second item): skipped where mount namespaces are not allowed (not root)."""
+    folder = tmp_path_factory.mktemp("blind")
+    try:
+        probe = subprocess.run([*unshared(folder), "true"], capture_output=True, timeout=30)
+    except (OSError, subprocess.TimeoutExpired):
+        probe = None
+    if probe is None or probe.returncode != 0:
+        pytest.skip("unshare --mount cannot hide a folder from a worker here (needs root)")
+    c = Cluster(tmp_path_factory.mktemp("blind-home"), workers=1, hide=folder)
+    try:
+        yield c, folder
+    finally:
+        c.close()
+
+
 @pytest.fixture(scope="module")
 def cluster(tmp_path_factory) -> Iterator[Cluster]:
     """Started in a folder of its own: its workers' working folder is not the tests'."""
@@ -125,12 +154,18 @@ def reference(tmp_path_factory) -> Path:
     return out
 
 
-def test_a_run_on_an_external_scheduler_is_the_local_run(tmp_path, cluster, reference, capsys):
+def test_a_run_on_an_external_scheduler_is_the_local_run(
+    tmp_path, cluster, reference, capsys, monkeypatch
+):
     """6 chunks of 1 beam on the two workers against the same run on this process's threads
-    (the independent computation): every stored value equal, bit for bit."""
+    (the independent computation): every stored value equal, bit for bit. ``--out`` is
+    relative and the workers' working folder another than this process's: the path they are
+    given is made absolute here."""
+    monkeypatch.chdir(tmp_path)
     out = tmp_path / "run.zarr"
-    code, err = pasim(capsys, *RUN, "--scheduler", cluster.address, "--out", str(out))
+    code, err = pasim(capsys, *RUN, "--scheduler", cluster.address, "--out", "run.zarr")
     assert code == 0, err
+    assert not list(cluster.home.glob("*.zarr"))  # nothing where the workers started
     same_sweep(out, reference)
     # Both workers ran chunks: the work went to the cluster, not to this machine's threads.
     from pasim_graph.task_record import read_tasks
@@ -140,33 +175,93 @@ def test_a_run_on_an_external_scheduler_is_the_local_run(tmp_path, cluster, refe
     assert not list(tmp_path.glob(f"{PREFIX}*")), "the storage probe left its files"
 
 
-def test_workers_that_do_not_share_the_folder_are_refused_before_anything_is_written(
-    tmp_path, cluster, capsys, monkeypatch
-):
-    """--out relative, this process in another working folder than the workers': they read
-    and write another folder than this process does (as a worker without the shared file
-    system would). Refused: exit 2, one line naming a worker's address and the folder, and
-    nothing written here or in the workers' folder."""
-    monkeypatch.chdir(tmp_path)
-    code, err = pasim(capsys, *RUN, "--scheduler", cluster.address, "--out", "g.zarr")
+class KillOnChunk:
+    """A thread that watches ``cluster``'s scheduler and kills (-9) the worker that holds a
+    run's shared inputs (its ``pasim-inputs-`` tasks) as soon as it is also given a chunk:
+    the worker whose loss the run's inputs must survive. ``killed`` names it afterwards."""
+
+    def __init__(self, cluster: Cluster, limit_s: float = 120.0):
+        import threading
+
+        self.cluster, self.limit_s = cluster, limit_s
+        self.killed: str | None = None
+        self.stop, self.ready = threading.Event(), threading.Event()
+        self.thread = threading.Thread(target=self._watch, daemon=True)
+        self.thread.start()
+        # Watching before the run starts: a client made while the run sets up could come
+        # too late (its chunks all done).
+        if not self.ready.wait(60):
+            pytest.fail("the watching client did not connect in 60 s")
+
+    def _watch(self) -> None:
+        from distributed import Client
+
+        with Client(self.cluster.address, timeout="10s") as watch:
+            names = {a: w["name"] for a, w in watch.scheduler_info()["workers"].items()}
+            self.ready.set()
+            deadline = time.monotonic() + self.limit_s
+            while not self.stop.is_set() and time.monotonic() < deadline:
+                holders = {
+                    a
+                    for key, who in watch.who_has().items()
+                    if str(key).startswith("pasim-inputs-")
+                    for a in who
+                }
+                for address, keys in watch.processing().items():
+                    if address in holders and any(str(k).startswith("pasim-chunk-") for k in keys):
+                        worker = int(names[address].removeprefix("w"))
+                        self.cluster.workers[worker].send_signal(signal.SIGKILL)
+                        self.killed = names[address]
+                        return
+                time.sleep(0.01)
+
+    def join(self) -> None:
+        self.stop.set()
+        self.thread.join()
+
+
+def test_a_worker_killed_as_it_starts_a_chunk_is_survived(tmp_path, reference, capsys):
+    """One of the two workers killed (-9) as soon as it holds the run's shared inputs and is
+    given a chunk: the run completes on the other worker and its store holds the values of
+    the run on this process's threads (the independent computation), bit for bit."""
+    own = Cluster(tmp_path / "home")
+    try:
+        killer = KillOnChunk(own)
+        out = tmp_path / "run.zarr"
+        code, err = pasim(capsys, *RUN, "--scheduler", own.address, "--out", str(out))
+        killer.join()
+        assert killer.killed is not None, "no worker was given a chunk while holding the inputs"
+        assert code == 0, err
+        assert own.workers[int(killer.killed[1:])].wait() == -signal.SIGKILL
+    finally:
+        own.close()
+    same_sweep(out, reference)
+
+
+def test_workers_that_do_not_share_the_folder_are_refused_before_anything_is_written(blind, capsys):
+    """The workers see an empty file system where this process writes --out's folder (as a
+    worker without the shared file system would). Refused: exit 2, one line naming a
+    worker's address and the folder, and nothing written there."""
+    cluster, folder = blind
+    out = folder / "g.zarr"
+    code, err = pasim(capsys, *RUN, "--scheduler", cluster.address, "--out", str(out))
     assert code == 2, err
     lines = [line for line in err.splitlines() if line.startswith("error")]
     assert len(lines) == 1 and "Traceback" not in err, err
     assert "worker tcp://127.0.0.1:" in lines[0], lines[0]
-    assert f"does not share the store's folder {tmp_path.resolve()}" in lines[0], lines[0]
-    assert "relative path" in lines[0], lines[0]
-    assert not list(tmp_path.iterdir())  # no store, no probe left
-    assert not list(cluster.home.glob(f"{PREFIX}*"))  # nor where the workers wrote theirs
+    assert f"does not share the store's folder {folder}: it cannot read" in lines[0], lines[0]
+    assert not list(folder.iterdir())  # no store, no probe left
 
 
-def test_the_same_study_refused_before_its_folder_is_made(tmp_path, cluster, capsys, monkeypatch):
-    monkeypatch.chdir(tmp_path)
+def test_the_same_study_refused_before_its_folder_is_made(blind, capsys):
+    cluster, folder = blind
+    out = folder / "s"
     code, err = pasim(
-        capsys, "study", str(TINY_STUDY), "--out", "s", "--scheduler", cluster.address
+        capsys, "study", str(TINY_STUDY), "--out", str(out), "--scheduler", cluster.address
     )
     assert code == 2, err
     assert "worker tcp://127.0.0.1:" in err and "Traceback" not in err, err
-    assert not list(tmp_path.iterdir())
+    assert not list(folder.iterdir())
 
 
 class _OneWorker:
@@ -297,14 +392,6 @@ def test_a_worker_killed_mid_study_is_survived_with_the_same_scores(tmp_path, ti
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="a run's scattered inputs are not recomputable: distributed's active memory "
-    "manager drops their broadcast replicas to one (ReduceReplicas), and when the worker "
-    "holding the last copy dies its chunk is cancelled ('lost dependencies') and reported "
-    "as a lost scheduler; failed 4 times of 4 on 2026-11-28 (twice that, twice a hang, "
-    "once of them with the memory manager off): see docs/scaling.md, 'A worker lost mid-run'",
-)
 def test_a_worker_killed_while_it_holds_a_chunk_is_survived(tmp_path, tiny_study):
     """One of the two workers killed (-9) as soon as the scheduler has given it a chunk:
     dask should rerun that chunk on the other worker and the study complete with the
