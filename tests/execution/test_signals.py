@@ -31,8 +31,16 @@ def reference(tmp_path_factory):
     return out
 
 
+# One SIGINT takes the path the double Ctrl-C and SIGTERM take (stop_on_signals, exit 128 +
+# the first signal): with -m slow; the other two in the default suite.
 @pytest.mark.parametrize(
-    "signals", [[signal.SIGINT], [signal.SIGTERM], [signal.SIGINT, signal.SIGINT]], ids=str
+    "signals",
+    [
+        pytest.param([signal.SIGINT], marks=pytest.mark.slow),
+        [signal.SIGTERM],
+        [signal.SIGINT, signal.SIGINT],
+    ],
+    ids=str,
 )
 def test_a_signalled_run_ends_cleanly_and_resumes(tmp_path, reference, capsys, signals):
     out = tmp_path / "run.zarr"
