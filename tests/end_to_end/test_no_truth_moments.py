@@ -10,7 +10,7 @@ import json
 import pytest
 import xarray as xr
 
-from ..conftest import GRAPHS, ROOT, pasim_result, run_cli
+from ..conftest import GRAPHS, ROOT, pasim_in_process, pasim_result
 
 GENERIC = str(GRAPHS / "generic_radar.yaml")
 RAINBOW = ROOT / "tests" / "fixtures" / "truth" / "2013051000000600dBZ.vol"
@@ -20,7 +20,7 @@ WITHOUT = ("ZDR", "RHOHV", "PHIDP", "VRADH", "WRADH")
 @pytest.fixture(scope="module")
 def store(tmp_path_factory):
     out = tmp_path_factory.mktemp("rainbow") / "dbz_only.zarr"
-    res = run_cli(
+    res = pasim_in_process(
         "run",
         GENERIC,
         "--truth",

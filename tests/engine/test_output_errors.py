@@ -19,7 +19,7 @@ import pytest
 from pasim_graph import outputs
 from pasim_graph.outputs import write_atomic
 
-from ..conftest import GRAPHS, ROOT, pasim, pasim_result, run_cli
+from ..conftest import GRAPHS, ROOT, pasim, pasim_in_process, pasim_result
 
 GENERIC = str(GRAPHS / "generic_radar.yaml")
 
@@ -28,7 +28,7 @@ GENERIC = str(GRAPHS / "generic_radar.yaml")
 def store(tmp_path_factory):
     """A 2-beam run of the generic radar at the fastest fidelity level."""
     out = tmp_path_factory.mktemp("outputs") / "run.zarr"
-    res = run_cli(
+    res = pasim_in_process(
         "run", GENERIC, "--sector", "280:282", "--set", "weather.method=expected",
         "--out", str(out),
     )  # fmt: skip

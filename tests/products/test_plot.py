@@ -16,7 +16,7 @@ from pasim_blocks.products.moment_figures import (
 
 from pasim_graph.store import summarize
 
-from ..conftest import GRAPHS, pasim_result, run_cli
+from ..conftest import GRAPHS, pasim_in_process, pasim_result
 
 GENERIC = str(GRAPHS / "generic_radar.yaml")
 
@@ -25,7 +25,7 @@ GENERIC = str(GRAPHS / "generic_radar.yaml")
 def store(tmp_path_factory):
     """A 4-beam run of the generic radar at the fastest fidelity level."""
     out = tmp_path_factory.mktemp("plot") / "run.zarr"
-    res = run_cli(
+    res = pasim_in_process(
         "run", GENERIC, "--sector", "280:284", "--set", "weather.method=expected",
         "--out", str(out),
     )  # fmt: skip

@@ -48,7 +48,7 @@ from scipy.special import erf
 from pasim_graph import cli, executor
 from pasim_graph.executor import LocalExecutor, RunOptions
 
-from ..conftest import GRAPHS, pasim_out, run_cli
+from ..conftest import GRAPHS, pasim_out, pasim_result
 
 GRAPH = GRAPHS / "cppar10_cband.yaml"
 #: A few degrees across the squall line west-north-west of KLBB.
@@ -270,11 +270,11 @@ def test_band_rule():
         (["weather.frequency_hz=1.3e9"], ["'propagation'", "frequency_hz 1.3e+09", "off"]),
     ],
 )
-def test_bad_values_are_named_in_one_line(sets, words):
+def test_bad_values_are_named_in_one_line(capsys, sets, words):
     args = ["validate", str(GRAPH)]
     for s in sets:
         args += ["--set", s]
-    res = run_cli(*args)
+    res = pasim_result(capsys, *args)
     assert res.returncode == 2, res.stderr
     assert "Traceback" not in res.stderr
     problem = [line for line in res.stderr.splitlines() if "block 'weather'" in line]

@@ -24,7 +24,7 @@ import xarray as xr
 from pasim_graph.executor import LocalExecutor, RunOptions, merge_products
 from pasim_graph.graph import load
 
-from ..conftest import GRAPHS, run_cli
+from ..conftest import GRAPHS, pasim_in_process
 
 SECTOR = {"scan.azimuth_start_deg": 282.0, "scan.azimuth_stop_deg": 286.0, "scan.pulses": 16}
 SEED = 7
@@ -35,7 +35,7 @@ def iq_store(tmp_path_factory):
     out = tmp_path_factory.mktemp("iq") / "iq.zarr"
     args = ["run", str(GRAPHS / "generic_radar.yaml"), "--sector", "282:286"]
     args += ["--set", "scan.pulses=16", "--seed", str(SEED), "--save-iq", "--out", str(out)]
-    res = run_cli(*args)
+    res = pasim_in_process(*args)
     assert res.returncode == 0, res.stderr
     return xr.open_datatree(out, engine="zarr")["sweep_0"].to_dataset()
 

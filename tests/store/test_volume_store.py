@@ -17,7 +17,7 @@ from pasim_graph import Chunk
 from pasim_graph.fm301 import sweep_names
 from pasim_graph.scores import TIME_ON_TARGET, volume_scores
 
-from ..conftest import GRAPHS, pasim_out, pasim_result, run_cli
+from ..conftest import GRAPHS, pasim_in_process, pasim_out, pasim_result
 
 CUTS = "0.5 0.0031 16; 1.5 0.001 32; 3.4 0.0012 24 243:245"
 #: (elevation, PRT, pulses, beams) of each cut over the sector 240:246.
@@ -46,7 +46,7 @@ def _open(path):
 @pytest.fixture(scope="module")
 def volume(tmp_path_factory):
     out = tmp_path_factory.mktemp("volume") / "store"
-    done = run_cli(*ARGS, "--chunk", "4", "--out", str(out))
+    done = pasim_in_process(*ARGS, "--chunk", "4", "--out", str(out))
     assert done.returncode == 0, done.stderr
     return out, done.stdout
 
