@@ -32,7 +32,7 @@ from pasim_blocks.signals import PATTERN
 from pasim_graph import Chunk
 from pasim_graph.graphfile import BlockSpec, dumps, read
 
-from ..conftest import GRAPHS, run_cli
+from ..conftest import GRAPHS, pasim_result
 
 
 def pencil_file(path, step=0.05, half=6.0, gain_db=45.5, cross_db=-30.0):
@@ -146,13 +146,13 @@ def test_element_file_is_the_patch(tmp_path) -> None:
     assert PATTERN.schema.check(out) == []
 
 
-def test_pattern_command_on_a_measured_antenna(tmp_path) -> None:
+def test_pattern_command_on_a_measured_antenna(tmp_path, capsys) -> None:
     table = pencil_file(tmp_path / "p.csv")
     spec = read(GRAPHS / "generic_radar.yaml")
     spec.blocks["antenna"] = BlockSpec("antenna.measured", {"path": str(tmp_path / "p.csv")})
     graph = tmp_path / "measured.yaml"
     graph.write_text(dumps(spec))
-    res = run_cli("pattern", str(graph), "--json", "--span", "5")
+    res = pasim_result(capsys, "pattern", str(graph), "--json", "--span", "5")
     assert res.returncode == 0, res.stderr
     figures = json.loads(res.stdout)
     assert figures["beamwidth_az_deg"] == pytest.approx(1.0, abs=0.01)
@@ -162,5 +162,5 @@ def test_pattern_command_on_a_measured_antenna(tmp_path) -> None:
     # element 'file' without a file is a validation problem naming the parameter
     spec.blocks["antenna"] = BlockSpec("antenna.planar", {"element": "file"})
     graph.write_text(dumps(spec))
-    res = run_cli("validate", str(graph))
+    res = pasim_result(capsys, "validate", str(graph))
     assert res.returncode == 2 and "element_file" in res.stderr

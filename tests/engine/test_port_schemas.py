@@ -40,7 +40,7 @@ from pasim_graph.executor import LocalExecutor, RunOptions
 from pasim_graph.graph import validate
 from pasim_graph.graphfile import dumps, read
 
-from ..conftest import FIXTURES, GRAPHS, run_cli
+from ..conftest import FIXTURES, GRAPHS, pasim_result, run_cli
 from .test_plugin import plugin_env  # noqa: F401  (the plugin package, pip-installed)
 
 SCHEMA = Schema(
@@ -387,8 +387,8 @@ def test_misspelt_variable_stops_the_run_at_its_block(plugin_env, tmp_path):  # 
 # ---- pasim blocks ---------------------------------------------------------------------------
 
 
-def test_blocks_text_shows_units_bounds_and_schemas():
-    res = run_cli("blocks")
+def test_blocks_text_shows_units_bounds_and_schemas(capsys):
+    res = pasim_result(capsys, "blocks")
     assert res.returncode == 0, res.stderr
     text = res.stdout
     sections = dict(re.findall(r"^(\S+)  \(\w+\) .*?\n((?:    .*\n)*)", text, flags=re.M))

@@ -22,7 +22,7 @@ import pytest
 from pasim_graph.graphfile import dumps, read
 from pasim_graph.studio.server import StudioServer
 
-from ..conftest import FIXTURES, GRAPHS, ROOT, run_cli
+from ..conftest import FIXTURES, GRAPHS, ROOT, pasim_result, run_cli
 
 TOKEN = "test-token-0123456789"
 SERVE_BROKEN = True  # the studio serves the broken fixtures too (conftest.folder)
@@ -478,11 +478,11 @@ def test_run_sectors_follow_the_command_lines_rule(client):
     assert "the sector starts and stops at 10 deg and holds no beam" in res["error"]
 
 
-def test_a_file_the_format_cannot_read_opens_read_only(client):
+def test_a_file_the_format_cannot_read_opens_read_only(client, capsys):
     status, g = client.get("/api/graph?path=broken/garbage.yaml")
     assert status == 200
     assert g["editable"] is False
-    res = run_cli("validate", str(FIXTURES / "broken" / "garbage.yaml"), "--json")
+    res = pasim_result(capsys, "validate", str(FIXTURES / "broken" / "garbage.yaml"), "--json")
     cli = json.loads(res.stdout)["problems"]
     assert [p["message"] for p in g["validation"]["problems"]] == [p["message"] for p in cli]
 
