@@ -28,6 +28,19 @@ def run_cli(
     )
 
 
+@pytest.fixture(autouse=True)
+def dask_scheduler_left_as_found():
+    """Every test leaves dask's global scheduler as it found it: a distributed client left
+    as the default (or closed out of order) sets it for every later test of the process,
+    whose computations then fail far from the cause; this names the test that left it."""
+    import dask
+
+    before = dask.config.get("scheduler", None)
+    yield
+    after = dask.config.get("scheduler", None)
+    assert after == before, f"the test left dask's scheduler set to {after!r} (was {before!r})"
+
+
 @pytest.fixture(scope="session")
 def truth_dataset():
     """The bundled scene as the truth block hands it on."""

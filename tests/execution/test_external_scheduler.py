@@ -196,7 +196,10 @@ class KillOnChunk:
     def _watch(self) -> None:
         from distributed import Client
 
-        with Client(self.cluster.address, timeout="10s") as watch:
+        # Not the process's default client: a default client sets dask's global scheduler
+        # and, closed before the run's own client, left "dask.distributed" set for every
+        # later test of this process (the run's client restores what it found).
+        with Client(self.cluster.address, timeout="10s", set_as_default=False) as watch:
             names = {a: w["name"] for a, w in watch.scheduler_info()["workers"].items()}
             self.ready.set()
             deadline = time.monotonic() + self.limit_s
