@@ -306,7 +306,7 @@ def table(page, selector):
 
 def test_run_a_sector_then_compare_before_and_after_a_swap(page, studio):
     page.click("[data-testid=tab-run]")
-    page.fill("[data-testid=run-sector]", "280:290")
+    page.fill("[data-testid=run-sector]", "280:285")
     page.select_option("[data-testid=run-level]", "combined")
     page.click("[data-testid=run-button]")
     page.wait_for_selector("[data-testid=run-progress-1]")  # live progress while it runs
