@@ -109,6 +109,10 @@ def start_run(cluster: Cluster, out: Path) -> subprocess.Popen:
     pytest.fail("the run wrote no chunk in 180 s")
 
 
+# With -m slow: the default suite kills a worker mid-run in
+# tests/execution/test_external_scheduler.py (the one holding the run's inputs, as it is given
+# a chunk: the harder case, on the same loopback cluster of real processes).
+@pytest.mark.slow
 def test_a_killed_worker_is_survived_with_the_same_numbers(tmp_path, reference):
     cluster = Cluster(tmp_path)
     try:
