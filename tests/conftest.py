@@ -53,25 +53,25 @@ def truth_dataset():
     return block.process({}, Chunk(beams=np.arange(0), resource=block.load()))["truth"]
 
 
-def pasim(capsys, *argv: str) -> tuple[int, str]:
-    """``pasim ARGV`` in this process: exit code (argparse's SystemExit too) and stderr."""
+def exit_code(*argv: str) -> Any:
+    """``pasim ARGV`` in this process: its exit code (argparse's SystemExit too)."""
     from pasim_graph.cli import main
 
     try:
-        code = main(list(argv))
+        return main(list(argv))
     except SystemExit as exc:
-        code = exc.code
+        return exc.code
+
+
+def pasim(capsys, *argv: str) -> tuple[int, str]:
+    """``pasim ARGV`` in this process: exit code and stderr."""
+    code = exit_code(*argv)
     return code, capsys.readouterr().err
 
 
 def pasim_out(capsys, *argv: str) -> tuple[int, str, str]:
     """``pasim ARGV`` in this process: exit code, stdout and stderr."""
-    from pasim_graph.cli import main
-
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
+    code = exit_code(*argv)
     out = capsys.readouterr()
     return code, out.out, out.err
 
@@ -156,15 +156,19 @@ def pasim_in_process(*argv: str) -> Result:
     import contextlib
     import io
 
-    from pasim_graph.cli import main
-
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = main(list(argv))
-        except SystemExit as exc:
-            code = exc.code
+        code = exit_code(*argv)
     return Result(code, out.getvalue(), err.getvalue())
+
+
+def generic_expected_run(out: Path, sector: str) -> Path:
+    """``out``: the generic radar over ``sector`` at the fastest fidelity level (expected),
+    run in this process: a store for tests of what reads stores."""
+    args = ["run", str(GRAPHS / "generic_radar.yaml"), "--sector", sector]
+    res = pasim_in_process(*args, "--set", "weather.method=expected", "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    return out
 
 
 def same_sweep(a, b) -> None:

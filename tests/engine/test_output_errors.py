@@ -19,7 +19,7 @@ import pytest
 from pasim_graph import outputs
 from pasim_graph.outputs import write_atomic
 
-from ..conftest import GRAPHS, ROOT, pasim, pasim_in_process, pasim_result
+from ..conftest import GRAPHS, ROOT, generic_expected_run, pasim, pasim_result
 
 GENERIC = str(GRAPHS / "generic_radar.yaml")
 
@@ -27,13 +27,7 @@ GENERIC = str(GRAPHS / "generic_radar.yaml")
 @pytest.fixture(scope="module")
 def store(tmp_path_factory):
     """A 2-beam run of the generic radar at the fastest fidelity level."""
-    out = tmp_path_factory.mktemp("outputs") / "run.zarr"
-    res = pasim_in_process(
-        "run", GENERIC, "--sector", "280:282", "--set", "weather.method=expected",
-        "--out", str(out),
-    )  # fmt: skip
-    assert res.returncode == 0, res.stderr
-    return out
+    return generic_expected_run(tmp_path_factory.mktemp("outputs") / "run.zarr", "280:282")
 
 
 def one_line(err: str) -> str:

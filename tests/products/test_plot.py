@@ -16,7 +16,7 @@ from pasim_blocks.products.moment_figures import (
 
 from pasim_graph.store import summarize
 
-from ..conftest import GRAPHS, pasim_in_process, pasim_result
+from ..conftest import GRAPHS, generic_expected_run, pasim_result
 
 GENERIC = str(GRAPHS / "generic_radar.yaml")
 
@@ -24,13 +24,7 @@ GENERIC = str(GRAPHS / "generic_radar.yaml")
 @pytest.fixture(scope="module")
 def store(tmp_path_factory):
     """A 4-beam run of the generic radar at the fastest fidelity level."""
-    out = tmp_path_factory.mktemp("plot") / "run.zarr"
-    res = pasim_in_process(
-        "run", GENERIC, "--sector", "280:284", "--set", "weather.method=expected",
-        "--out", str(out),
-    )  # fmt: skip
-    assert res.returncode == 0, res.stderr
-    return out
+    return generic_expected_run(tmp_path_factory.mktemp("plot") / "run.zarr", "280:284")
 
 
 def test_plot_draws_a_row_per_moment(store, tmp_path, capsys):

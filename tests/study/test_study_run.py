@@ -12,6 +12,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -175,13 +176,10 @@ def wait_for_runs(manifest: Path, proc: subprocess.Popen, n: int) -> None:
         time.sleep(0.05)
 
 
-# Two tiny studies in fresh processes (50 s): the stop-and-resume path is checked in the
-# default suite with SIGTERM (below); kill -9 with -m slow.
-@pytest.mark.slow
-def test_kill_9_mid_study_then_resume(tmp_path, study):
-    out = tmp_path / "out"
-    # (scores only: the report is tests/study/test_study_report.py's subject)
-    cmd = [
+def study_command(out: Path) -> list[str]:
+    """``pasim study`` of the tiny study into ``out`` in a fresh process, scores only (the
+    report is tests/study/test_study_report.py's subject)."""
+    return [
         sys.executable,
         "-m",
         "pasim_graph",
@@ -191,7 +189,21 @@ def test_kill_9_mid_study_then_resume(tmp_path, study):
         str(out),
         "--no-report",
     ]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+
+
+def study_process(out: Path, **popen: Any) -> subprocess.Popen:
+    """:func:`study_command` started, its stderr piped."""
+    return subprocess.Popen(
+        study_command(out), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, **popen
+    )
+
+
+# Two tiny studies in fresh processes (50 s): the stop-and-resume path is checked in the
+# default suite with SIGTERM (below); kill -9 with -m slow.
+@pytest.mark.slow
+def test_kill_9_mid_study_then_resume(tmp_path, study):
+    out = tmp_path / "out"
+    proc = study_process(out)
     manifest = out / "pasim-study.json"
     wait_for_runs(manifest, proc, 3)
     assert proc.poll() is None, "the study ended before it could be killed"
@@ -200,7 +212,9 @@ def test_kill_9_mid_study_then_resume(tmp_path, study):
     finished = json.loads(manifest.read_text())["runs"]
     assert 3 <= len(finished) < 8
     before = {k: _mtimes(out / "runs" / k) for k in finished}
-    res = subprocess.run([*cmd, "--resume"], capture_output=True, text=True, timeout=600)
+    res = subprocess.run(
+        [*study_command(out), "--resume"], capture_output=True, text=True, timeout=600
+    )
     assert res.returncode == 0, res.stderr
     # A run that finished between its store and the manifest is kept too.
     kept = int(res.stderr.split("keeping ")[1].split()[0])
@@ -233,18 +247,7 @@ def test_a_signalled_study_ends_with_one_line_and_resumes(tmp_path, study, sig):
     """SIGINT / SIGTERM: exit 130 / 143, one line saying how to go on, no traceback, no lock
     left in any run's store; --resume then gives the uninterrupted study's scores."""
     out = tmp_path / "out"
-    # (scores only: the report is tests/study/test_study_report.py's subject)
-    cmd = [
-        sys.executable,
-        "-m",
-        "pasim_graph",
-        "study",
-        str(STUDY),
-        "--out",
-        str(out),
-        "--no-report",
-    ]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    proc = study_process(out, text=True)
     manifest = out / "pasim-study.json"
     wait_for_runs(manifest, proc, 2)
     assert proc.poll() is None, "the study ended before it could be signalled"
