@@ -35,6 +35,7 @@ import json
 import os
 import re
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -80,10 +81,15 @@ def environment(pythonpath: str | None) -> dict[str, str]:
     return env
 
 
+def python(args: argparse.Namespace, build: str) -> str:
+    """The interpreter of a build: this one's, or ``--baseline-python`` (another venv)."""
+    return args.baseline_python if build == "baseline" and args.baseline_python else sys.executable
+
+
 def graph_run(args: argparse.Namespace, workers: int, build: str, pythonpath: str | None) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "run.zarr"
-        cmd = [sys.executable, "-m", "pasim_graph", "run", args.graph, "--sector", args.sector]
+        cmd = [python(args, build), "-m", "pasim_graph", "run", args.graph, "--sector", args.sector]
         cmd += ["--workers", str(workers), "--out", str(out), *args.run_args]
         m = timed(cmd, environment(pythonpath))
         phases = PHASES.search(m.pop("stderr"))
@@ -123,6 +129,7 @@ def digest(store: Path) -> str:
 
 def study_run(args: argparse.Namespace, workers: int, build: str, pythonpath: str | None) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
+        kept = Path(args.keep) / f"{build}_w{workers}" if args.keep else None
         study = Path(tmp) / "study.yaml"
         text = Path(args.study).read_text()
         # The study's own sector, cut short; its graphs are found next to the original file.
@@ -134,8 +141,10 @@ def study_run(args: argparse.Namespace, workers: int, build: str, pythonpath: st
             text,
         )
         study.write_text(text)
-        out = Path(tmp) / "out"
-        cmd = [sys.executable, "-m", "pasim_graph", "study", str(study), "--out", str(out)]
+        out = kept if kept is not None else Path(tmp) / "out"
+        if kept is not None:
+            shutil.rmtree(kept, ignore_errors=True)
+        cmd = [python(args, build), "-m", "pasim_graph", "study", str(study), "--out", str(out)]
         cmd += ["--workers", str(workers)]
         m = timed(cmd, environment(pythonpath))
         m.pop("stderr")
@@ -211,18 +220,24 @@ def predict(model: dict, workers: int) -> dict:
 
 
 def study_model(row: dict) -> dict:
-    """The study at one worker: its work (every run's set-up steps and chunk tasks) and the
-    rest (start-up, pattern and hardware measurements, reports)."""
+    """The study at one worker: its work (every run's set-up steps and chunk tasks, wall
+    time), the rest (start-up, pattern and hardware measurements, the report: one after
+    another) and the CPU that ran beside the work (the workers' tasks and the ``pasim``
+    process's own share: set-up, scoring, the scheduler)."""
     work = 0.0
     for r in row["records"]:
         work += sum(s["stop"] - s["start"] for s in r["steps"] if s["kind"] != "connect")
         work += sum(t["stop"] - t["start"] for t in r["tasks"])
-    return {"work_s": work, "rest_s": max(row["wall_s"] - work, 0.0)}
+    rest = max(row["wall_s"] - work, 0.0)
+    return {"work_s": work, "rest_s": rest, "beside_cpu_s": max(row["cpu_s"] - rest, 0.0)}
 
 
-def predict_study(model: dict, workers: int) -> float:
-    """Runs overlapped: the work spread over the workers, the rest one after another."""
-    return model["rest_s"] + model["work_s"] / workers
+def predict_study(model: dict, workers: int, cores: int | None = None) -> float:
+    """Runs overlapped: the rest one after another, then the work spread over the workers,
+    but never faster than the cores can give the CPU that runs beside it (``cores``: the
+    machine's; one a worker when not given)."""
+    cores = cores or workers
+    return model["rest_s"] + max(model["work_s"] / workers, model["beside_cpu_s"] / cores)
 
 
 def model_checks(rows: list[dict], case: str, predicted) -> list[dict]:
@@ -255,11 +270,19 @@ def main() -> int:
     ap.add_argument("--no-study", action="store_true")
     ap.add_argument("--no-graph", action="store_true")
     ap.add_argument("--baseline-pythonpath", help="another build to pair every run with")
+    ap.add_argument(
+        "--baseline-python",
+        help="the interpreter of another venv holding the baseline build (an older checkout"
+        " whose block modules the installed entry points would not find)",
+    )
+    ap.add_argument("--keep", help="keep each study's folder under DIR/BUILD_wW (report, scores)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_scaling.jsonl"))
     args = ap.parse_args()
     counts = [int(w) for w in args.workers.split(",")]
     builds = [("new", None)] + (
-        [("baseline", args.baseline_pythonpath)] if args.baseline_pythonpath else []
+        [("baseline", args.baseline_pythonpath)]
+        if args.baseline_pythonpath or args.baseline_python
+        else []
     )
     rows: list[dict] = []
 
@@ -315,7 +338,8 @@ def main() -> int:
     if sones:
         smodel = study_model(sones[0])
         summary["study_model"] = smodel
-        checks += model_checks(rows, "study", lambda w: predict_study(smodel, w))
+        cores = os.cpu_count() or 1
+        checks += model_checks(rows, "study", lambda w: predict_study(smodel, w, cores))
         summary["study_predicted"] = {w: predict_study(smodel, w) for w in (16, 64, 256, 1000)}
     summary["checks"] = checks
     digests = {r["digest"] for r in rows if r["case"] == "graph"}

@@ -23,6 +23,9 @@ from pasim_graph.store import file_digest
 from .model import Study
 from .plan import Run
 
+#: The study file's entry among a study's inputs (its seeds may change: ``runner.added_seeds``).
+STUDY_FILE = "the study file"
+
 
 def study_inputs(study: Study, runs: list[Run]) -> dict[str, Any]:
     """``{"version", "files": {what: {"path", "sha256"}}}``: the package version and the
@@ -32,7 +35,7 @@ def study_inputs(study: Study, runs: list[Run]) -> dict[str, Any]:
     from pasim_graph import __version__
 
     files = {
-        "the study file": {
+        STUDY_FILE: {
             "path": study.file,
             "sha256": hashlib.sha256(study.text.encode()).hexdigest(),
         }

@@ -82,7 +82,7 @@ def take_folder(
 ) -> dict[str, Any]:
     """The study's manifest in ``out``, refusing a folder this program did not write, and
     (with ``--resume``) one begun on other inputs (:func:`.integrity.study_inputs`)."""
-    from .integrity import changed_inputs
+    from .integrity import STUDY_FILE, changed_inputs
 
     manifest = out / MANIFEST
     if out.exists() and not out.is_dir():
@@ -93,16 +93,42 @@ def take_folder(
             raise StudyError(
                 f"{out} holds a study already: complete it with --resume, or choose another --out"
             )
+        added: list[int] = []
         if state.get("study_digest") != digest(study):
-            raise StudyError(
-                f"{out}: the study file changed since this folder's study began "
-                f"({state.get('study_file')}); use another --out for the new study"
-            )
-        why = changed_inputs(state.get("inputs"), inputs) if inputs is not None else ""
+            added = added_seeds(state, study)
+            if not added:
+                raise StudyError(
+                    f"{out}: the study file changed since this folder's study began "
+                    f"({state.get('study_file')}) in more than added seeds; use another "
+                    "--out for the new study"
+                )
+        before = state.get("inputs")
+        if added and inputs is not None and isinstance(before, dict):
+            # The study file itself changed by its seeds alone (checked above): every other
+            # input must be as it was.
+            files = {k: v for k, v in (before.get("files") or {}).items() if k != STUDY_FILE}
+            before = {**before, "files": {**files, STUDY_FILE: inputs["files"][STUDY_FILE]}}
+        why = changed_inputs(before, inputs) if inputs is not None else ""
         if why:
             raise StudyError(
                 f"{out}: cannot resume this study: {why}; its finished runs would be mixed "
                 "with runs of other inputs: use another --out for the new study"
+            )
+        if added:
+            began = state.get("study_text", "")
+            state = {
+                **state,
+                "study_file": study.file,
+                "study_digest": digest(study),
+                "study_text": study.text,
+                "inputs": inputs if inputs is not None else state.get("inputs", {}),
+                "seeds_added": [*state.get("seeds_added", []), {"seeds": added, "from": began}],
+            }
+            save(out, state)
+            print(
+                f"{out}: seed{'s' if len(added) > 1 else ''} {', '.join(map(str, added))} "
+                "added to the study; its finished runs are kept",
+                file=sys.stderr,
             )
         return dict(state)
     if out.exists() and any(out.iterdir()):
@@ -124,6 +150,42 @@ def take_folder(
     }
     write_atomic(manifest, json.dumps(state, indent=1))
     return state
+
+
+def added_seeds(state: dict[str, Any], study: Study) -> list[int]:
+    """The seeds ``study`` adds to the study a folder began (its manifest ``state``), when
+    that is its only change: the same title, reference, systems, cases and sweeps, every seed
+    it began with kept. [] for any other change (or none): adding seeds narrows a study's
+    noise intervals without running again what it has (a run is the same run whatever
+    seeds stand beside it: its key names its own seed only)."""
+    from .model import parse_study
+
+    began = parse_study(str(state.get("study_text", "")), str(state.get("study_file", "")))
+    if began.problems or study.problems or not set(began.seeds) < set(study.seeds):
+        return []
+    if _design(began) != _design(study):
+        return []
+    return [s for s in study.seeds if s not in began.seeds]
+
+
+def _design(study: Study) -> Any:
+    """What a study computes except its seeds: its entries without their line numbers."""
+    from dataclasses import asdict
+
+    def strip(x: Any) -> Any:
+        if isinstance(x, dict):
+            return {k: strip(v) for k, v in x.items() if k not in _LINES}
+        if isinstance(x, list):
+            return [strip(v) for v in x]
+        return x
+
+    return strip(
+        {k: v for k, v in asdict(study).items() if k not in ("file", "text", "seeds", "problems")}
+    )
+
+
+# Where an entry was written in the study file: not what it computes.
+_LINES = ("line", "override_lines", "value_lines")
 
 
 def save(out: Path, state: dict[str, Any]) -> None:

@@ -7,6 +7,7 @@ gates (the scene interval) and many independent scenes (the paired interval's na
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -172,21 +173,31 @@ def test_a_real_difference_ranks_with_one_seed_and_no_difference_does_not():
 FIX = Path(__file__).parents[1] / "fixtures" / "study"
 
 
-def _run(tmp: Path, seeds: str) -> dict:
-    from pasim_graph.cli import main
-
+def three_seed_study(tmp: Path) -> Path:
+    """The tiny study's file with seeds [0, 1, 2] (its graphs found in tests/fixtures/study)."""
     text = (FIX / "tiny_study.yaml").read_text()
-    text = text.replace("seeds: [0]", f"seeds: {seeds}").replace("graph: ", f"graph: {FIX}/")
+    text = text.replace("seeds: [0]", "seeds: [0, 1, 2]").replace("graph: ", f"graph: {FIX}/")
     (tmp / "study.yaml").write_text(text)
-    assert main(["study", str(tmp / "study.yaml"), "--out", str(tmp / "out"), "--no-report"]) == 0
-    return {**json.loads((tmp / "out" / "scores.json").read_text()), "_out": tmp / "out"}
+    return tmp / "study.yaml"
+
+
+def scores(out: Path) -> dict:
+    return {**json.loads((out / "scores.json").read_text()), "_out": out}
 
 
 @pytest.fixture(scope="module")
 def one_and_three(tmp_path_factory, tiny_study) -> tuple[dict, dict]:
-    # The one-seed study is the tiny study itself (shared with the other study tests).
-    one = {**json.loads((tiny_study / "scores.json").read_text()), "_out": tiny_study}
-    return one, _run(tmp_path_factory.mktemp("three"), "[0, 1, 2]")
+    # The one-seed study is the tiny study itself (shared with the other study tests); the
+    # three-seed one is a copy of it with seeds 1 and 2 added (runner.added_seeds): its seed-0
+    # runs are kept, not run again (test_study_seeds_added.py checks that this is the study
+    # begun with three seeds, value for value).
+    from pasim_graph.cli import main
+
+    tmp = tmp_path_factory.mktemp("three")
+    shutil.copytree(tiny_study, tmp / "out")
+    study = three_seed_study(tmp)
+    assert main(["study", str(study), "--out", str(tmp / "out"), "--resume", "--no-report"]) == 0
+    return scores(tiny_study), scores(tmp / "out")
 
 
 def test_rankings_agree_between_one_and_three_seeds(one_and_three):
