@@ -194,7 +194,7 @@ def test_a_study_of_the_plugin_antenna(plugins, tmp_path, capsys) -> None:
         "seeds: [0]\n"
     )
     out = tmp_path / "out"
-    code, err = pasim(capsys, "study", str(study), "--out", str(out))
+    code, err = pasim(capsys, "study", str(study), "--out", str(out), "--no-report")
     assert code == 0, err
     scores = json.loads((out / "scores.json").read_text())
     assert "square" in scores

@@ -68,6 +68,10 @@ def test_plot_draws_an_rhi_as_range_height(store, tmp_path, capsys):
     assert code == 2 and "no sweep 3" in err and "sweep_0" in err
 
 
+# Two RHI runs over a volume truth (20 s): -m slow. The default suite checks the same draws
+# against the chunking on a volume truth (tests/truth/test_volume_truth.py) and on PPI and
+# volume scans (tests/execution/test_dask_executor.py, tests/store/test_volume_store.py).
+@pytest.mark.slow
 def test_an_rhi_gives_the_same_numbers_whatever_the_chunking(tmp_path):
     """Beams at one azimuth, drawn by the default (random) level: chunks of 1 and of 3 store
     the same values (the volume truth and the physical width model, whose scan modulation is
