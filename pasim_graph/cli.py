@@ -54,13 +54,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .dask_executor import (
-        DaskExecutor,
-        ResourceError,
-        ResumeError,
-        SchedulerError,
-        check_scheduler,
-    )
+    from .cluster import SchedulerError, check_scheduler
+    from .dask_executor import DaskExecutor, ResourceError, ResumeError
     from .executor import BlockError, RunOptions
     from .provenance import run_attrs
     from .scores import print_volume, volume_scores

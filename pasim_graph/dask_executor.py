@@ -34,6 +34,15 @@ import numpy as np
 import xarray as xr
 
 from .block import Block
+from .cluster import (
+    LOCAL_SCHEDULERS,
+    SchedulerError,
+    check_storage,
+    open_client,
+    progress_bar,
+    warm_up_workers,
+    worker_name,
+)
 from .executor import LocalExecutor, RunOptions, chunks, merge_products
 from .fm301 import sweep_group
 from .graph import Graph
@@ -97,12 +106,6 @@ class RunReport:
     time_on_target_s: float = 0.0  # sum of the dwells of every beam of every sweep
 
 
-#: ``scheduler`` values that run in this process: dask's threads (the default) or its
-#: synchronous scheduler (one chunk after another in the calling thread: pdb works, for
-#: debugging). Anything else is the address of a ``dask.distributed`` scheduler.
-LOCAL_SCHEDULERS = ("threads", "sync")
-
-
 #: The most beams a chunk is given when the run does not say (``--chunk``): the size whose
 #: memory docs/performance.md measures.
 MOST_BEAMS = 8
@@ -140,153 +143,6 @@ def chunk_key(run: str, path: str | Path, index: int) -> str:
     return f"pasim-chunk-{run}-{where}-{index}"
 
 
-def check_scheduler(address: str, timeout_s: float = 3.0) -> None:
-    """Refuse quickly a scheduler address nothing answers at (dask would retry for 30 s)."""
-    import socket
-    from urllib.parse import urlsplit
-
-    if address in LOCAL_SCHEDULERS:
-        return
-    parts = urlsplit(address if "://" in address else f"tcp://{address}")
-    if parts.scheme not in ("tcp", "tls"):
-        raise SchedulerError(
-            f"--scheduler {address!r}: expected tcp://HOST:PORT (or tls://), 'threads' or 'sync'"
-        )
-    try:
-        host, port = parts.hostname, parts.port
-    except ValueError:
-        host, port = None, None
-    if not host or not port:
-        raise SchedulerError(f"--scheduler {address!r}: expected tcp://HOST:PORT")
-    try:
-        with socket.create_connection((host, port), timeout=timeout_s):
-            pass
-    except OSError as exc:
-        raise SchedulerError(
-            f"--scheduler {address!r}: no scheduler answers there "
-            f"({exc.strerror or exc}, waited {timeout_s:g} s)"
-        ) from None
-
-
-class SchedulerError(RuntimeError):
-    """The scheduler named for a run cannot be reached or understood."""
-
-
-def check_storage(scheduler: str, target: str | Path, client: Any = None) -> None:
-    """Before anything is written: refuse (:class:`SchedulerError`, one line) the cluster at
-    ``scheduler`` if one of its workers does not read and write ``target``'s folder as this
-    process does (:mod:`pasim_graph.shared_storage`; a relative ``target`` is taken from this
-    process's working folder, as the chunk tasks get it). ``client``: one already connected
-    to it (a study's), used and left open; else one is made for the check and closed. A
-    LocalCluster's workers (``--workers``) share this process's view."""
-    from .shared_storage import StorageError, check_shared_storage
-
-    own = client is None
-    if own:
-        try:
-            client, _ = open_client(None, scheduler)
-        except OSError as exc:  # distributed's TimeoutError is one
-            raise SchedulerError(f"--scheduler {scheduler!r}: cannot connect ({exc})") from None
-    try:
-        check_shared_storage(client, target)
-    except StorageError as exc:
-        raise SchedulerError(str(exc)) from None
-    finally:
-        if own:
-            client.close()
-
-
-def _warm_up(classes: list[type[Block]]) -> None:
-    """A worker's first-use costs, paid when it starts (while the client reads the inputs)
-    instead of in its first chunk: the blocks' lazy imports, and the engine's own."""
-    for cls in classes:
-        cls.warm_up()
-    warm_engine()
-
-
-def warm_engine() -> None:
-    """Pay the first use of what every chunk task uses: xarray's look-up of the duck-array
-    libraries (it imports pint, sparse, cupy... at the first index it builds: 0.5-1 s of CPU,
-    measured in a worker's first chunk) and the store's write path (xarray's zarr backend, the
-    codecs), on a throwaway store in a temporary folder."""
-    import tempfile
-
-    from .store import encoding
-
-    ds = xr.Dataset(
-        {"v": (("azimuth", "range"), np.zeros((2, 3), np.float32))},
-        coords={"azimuth": np.arange(2.0), "range": np.arange(3.0)},
-    )
-    ds = xr.merge([ds, ds.rename({"v": "w"})], compat="override", join="override")
-    with tempfile.TemporaryDirectory(prefix="pasim-warm-") as tmp:
-        import warnings
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            ds.to_zarr(tmp, mode="w", encoding={"v": encoding(np.dtype(np.float32))})
-            ds[["v"]].drop_vars(["azimuth", "range"]).to_zarr(
-                tmp, region={"azimuth": slice(0, 2)}, consolidated=False
-            )
-
-
-def open_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
-    """A ``dask.distributed`` client and the LocalCluster it runs on (None for a
-    ``scheduler`` address): ``workers`` single-threaded worker processes started here, or
-    the scheduler at ``scheduler``. The caller closes both."""
-    import logging
-
-    from distributed import Client, LocalCluster
-
-    # distributed logs a lost connection as an ERROR with its traceback, on this
-    # process's stderr; the run says what happened in one line of its own instead.
-    for name in ["distributed", *logging.root.manager.loggerDict]:
-        if name.startswith("distributed"):
-            logging.getLogger(name).setLevel(logging.CRITICAL)
-
-    if scheduler and scheduler not in LOCAL_SCHEDULERS:
-        return Client(scheduler, timeout="10s"), None
-    import dask
-
-    # Dask's nannies give their workers MALLOC_TRIM_THRESHOLD_, which turns off glibc's
-    # adaptive mmap threshold: every large numpy temporary becomes a fresh mmap of zeroed
-    # pages. Measured on the generic radar: chunks 1.5x slower. Memory stays bounded by
-    # the chunk without it.
-    trim = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
-    with dask.config.set({trim: None}):
-        cluster = LocalCluster(
-            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
-        )
-    try:
-        return Client(cluster), cluster
-    except BaseException:
-        cluster.close()
-        raise
-
-
-def warm_up_workers(client: Any, classes: list[type[Block]], *, wait: bool = True) -> None:
-    """Workers import the block modules (and their numerical libraries) now, while this
-    process is still reading the inputs, not when their first chunk arrives. ``wait=False``
-    only sends it (the calling thread goes on reading inputs; a chunk that reaches a worker
-    first pays the imports itself, as without a warm-up)."""
-    # distributed sends without waiting only a coroutine function (it runs it on the
-    # worker's event loop, as it runs a plain one).
-    client.run(_warm_up_async if not wait else _warm_up, classes, wait=wait)
-
-
-async def _warm_up_async(classes: list[type[Block]]) -> None:
-    _warm_up(classes)
-
-
-def _worker_name() -> str:
-    """Where a task ran: host, process and (under dask's threads) thread."""
-    import socket
-    import threading
-
-    thread = threading.current_thread()
-    where = f"{socket.gethostname()}:{os.getpid()}"
-    return where if thread is threading.main_thread() else f"{where}/{thread.name}"
-
-
 def _run_and_write(
     executor: LocalExecutor,
     static: dict,
@@ -320,7 +176,7 @@ def _run_and_write(
         "computed": computed,
         "stop": time.time(),
         "cpu_s": time.thread_time() - cpu,
-        "worker": _worker_name(),
+        "worker": worker_name(),
         "bytes": int(sum(v.nbytes for v in sweep.data_vars.values() if beam_dim in v.dims)),
     }
 
@@ -808,7 +664,7 @@ class DaskExecutor:
         index = {f.key: i for f, i in zip(futures, todo, strict=True)}
         records: dict[int, dict[str, Any] | None] = {}
         failed: dict[int, Any] = {}
-        bar = _progress_bar(client, futures) if self.progress else None
+        bar = progress_bar(client, futures) if self.progress else None
         try:
             # Each chunk's record is taken as it ends and the chunk released: a worker lost
             # afterwards holds nothing of it that the scheduler would run it again for (the
@@ -867,20 +723,3 @@ class _Box:
 def _given(box: _Box) -> Any:
     """A task that makes a run's shared input: the value it was given (on a worker)."""
     return box.value
-
-
-def _progress_bar(client: Any, futures: list[Any]) -> Any:
-    """distributed's text progress bar for ``futures``, drawn from a thread of its own (it
-    blocks until they end) on standard error: standard output holds the product (the score
-    table)."""
-    import threading
-
-    from distributed import progress
-
-    def draw() -> None:
-        with contextlib.suppress(Exception), contextlib.redirect_stdout(sys.stderr):
-            progress(futures, scheduler=client.scheduler.address)
-
-    thread = threading.Thread(target=draw, name="pasim-progress", daemon=True)
-    thread.start()
-    return thread

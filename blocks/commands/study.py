@@ -71,16 +71,15 @@ class StudyCommand:
         )
 
     def run(self, args: argparse.Namespace) -> int:
-        from pasim_graph.command_api import UserError
-        from pasim_graph.dask_executor import (
+        from pasim_graph.cluster import (
             LOCAL_SCHEDULERS,
-            ResourceError,
-            ResumeError,
             SchedulerError,
             check_scheduler,
             check_storage,
             open_client,
         )
+        from pasim_graph.command_api import UserError
+        from pasim_graph.dask_executor import ResourceError, ResumeError
         from pasim_graph.executor import BlockError
         from pasim_graph.steering import SteeringError
 

@@ -388,12 +388,8 @@ def execute(
     already connected to ``scheduler`` (the command's, which checked the shared storage on
     it), used instead and left open.
     """
-    from pasim_graph.dask_executor import (
-        LOCAL_SCHEDULERS,
-        DaskExecutor,
-        open_client,
-        warm_up_workers,
-    )
+    from pasim_graph.cluster import LOCAL_SCHEDULERS, open_client, warm_up_workers
+    from pasim_graph.dask_executor import DaskExecutor
     from pasim_graph.executor import RunOptions
     from pasim_graph.provenance import run_attrs
     from pasim_graph.resources import memory_available
