@@ -1,5 +1,7 @@
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import os
 import subprocess
@@ -254,6 +256,24 @@ def original(tmp_path_factory):
 TINY_STUDY = FIXTURES / "study" / "tiny_study.yaml"
 
 
+def tiny_study_file(
+    folder: Path,
+    seeds: str,
+    edit: tuple[str, str] = ("", ""),
+    graphs: Path = FIXTURES / "study",
+) -> Path:
+    """The tiny study's file written in ``folder`` with ``seeds`` (``"[0, 1, 2]"``), its graphs
+    found in ``graphs``, and ``edit`` (old, new) made to its text."""
+    text = TINY_STUDY.read_text().replace("graph: ", f"graph: {graphs}/")
+    text = text.replace("seeds: [0]", f"seeds: {seeds}")
+    if edit[0]:
+        assert edit[0] in text
+        text = text.replace(*edit)
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "study.yaml").write_text(text)
+    return folder / "study.yaml"
+
+
 @pytest.fixture(scope="session")
 def tiny_study(tmp_path_factory) -> Path:
     """The tiny study's finished output folder, built once for the whole test run: the first
@@ -283,6 +303,8 @@ def tiny_study(tmp_path_factory) -> Path:
             assert main(["study", str(TINY_STUDY), "--out", str(out), "--no-report"]) == 0
             times = {str(p): p.stat().st_mtime_ns for p in out.rglob("*.zarr/**/*")}
             (out.parent / "stores-before-report.json").write_text(json.dumps(times))
-            assert main(["study", str(out), "--report-only"]) == 0
+            with contextlib.redirect_stderr(io.StringIO()) as err:
+                assert main(["study", str(out), "--report-only"]) == 0
+            (out.parent / "report-only.err").write_text(err.getvalue())
             built.touch()
     return out

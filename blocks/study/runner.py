@@ -106,8 +106,8 @@ def take_folder(
         if added and inputs is not None and isinstance(before, dict):
             # The study file itself changed by its seeds alone (checked above): every other
             # input must be as it was.
-            files = {k: v for k, v in (before.get("files") or {}).items() if k != STUDY_FILE}
-            before = {**before, "files": {**files, STUDY_FILE: inputs["files"][STUDY_FILE]}}
+            files = {**(before.get("files") or {}), STUDY_FILE: inputs["files"][STUDY_FILE]}
+            before = {**before, "files": files}
         why = changed_inputs(before, inputs) if inputs is not None else ""
         if why:
             raise StudyError(

@@ -19,6 +19,8 @@ from pasim_blocks.study.intervals import (
     scene_interval,
 )
 
+from ..conftest import tiny_study_file
+
 BEAMS, GATES = 90, 120
 
 
@@ -170,15 +172,6 @@ def test_a_real_difference_ranks_with_one_seed_and_no_difference_does_not():
 # A tiny real study: the two pencil beams of tests/fixtures/study on 8 beams, 8 pulses, run
 # with one seed and with three. Its sector is short (2 to 3 bootstrap blocks), so its scene
 # intervals are crude; the test asks only that the rankings do not contradict each other.
-FIX = Path(__file__).parents[1] / "fixtures" / "study"
-
-
-def three_seed_study(tmp: Path) -> Path:
-    """The tiny study's file with seeds [0, 1, 2] (its graphs found in tests/fixtures/study)."""
-    text = (FIX / "tiny_study.yaml").read_text()
-    text = text.replace("seeds: [0]", "seeds: [0, 1, 2]").replace("graph: ", f"graph: {FIX}/")
-    (tmp / "study.yaml").write_text(text)
-    return tmp / "study.yaml"
 
 
 def scores(out: Path) -> dict:
@@ -195,7 +188,7 @@ def one_and_three(tmp_path_factory, tiny_study) -> tuple[dict, dict]:
 
     tmp = tmp_path_factory.mktemp("three")
     shutil.copytree(tiny_study, tmp / "out")
-    study = three_seed_study(tmp)
+    study = tiny_study_file(tmp, "[0, 1, 2]")
     assert main(["study", str(study), "--out", str(tmp / "out"), "--resume", "--no-report"]) == 0
     return scores(tiny_study), scores(tmp / "out")
 

@@ -127,6 +127,7 @@ def test_report_only_rebuilds_it_without_running(study):
     assert len(before) > 100
     assert {str(p): p.stat().st_mtime_ns for p in study.rglob("*.zarr/**/*")} == before
     assert (study / REPORT).stat().st_mtime_ns > max(before.values())
+    assert "wrote" in (study.parent / "report-only.err").read_text()
 
 
 @pytest.mark.parametrize("what", ["missing", "not-a-study"])

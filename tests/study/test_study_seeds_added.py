@@ -12,49 +12,34 @@ from pathlib import Path
 
 import pytest
 
-from ..conftest import pasim
-
-FIX = Path(__file__).parents[1] / "fixtures" / "study"
+from ..conftest import FIXTURES, pasim, tiny_study_file
 
 
-def study_file(
-    folder: Path, seeds: str, edit: tuple[str, str] = ("", ""), graphs: Path = FIX
-) -> Path:
-    """The tiny study's file in ``folder`` with ``seeds``, its graphs found in ``graphs``."""
-    text = (FIX / "tiny_study.yaml").read_text().replace("graph: ", f"graph: {graphs}/")
-    text = text.replace("seeds: [0]", f"seeds: {seeds}")
-    if edit[0]:
-        assert edit[0] in text
-        text = text.replace(*edit)
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "study.yaml").write_text(text)
-    return folder / "study.yaml"
+def take(
+    tmp_path: Path,
+    seeds: str,
+    *,
+    resume: bool = True,
+    edit: tuple[str, str] = ("", ""),
+    graphs: Path = FIXTURES / "study",
+) -> dict:
+    """``take_folder`` of ``tmp_path/out`` for the tiny study with ``seeds`` (no run): a study
+    begun there (``resume=False``), or its resume with the study file changed."""
+    from pasim_blocks.study.integrity import study_inputs
+    from pasim_blocks.study.model import read_study
+    from pasim_blocks.study.plan import plan_runs
+    from pasim_blocks.study.runner import take_folder
+
+    folder = tmp_path / ("second" if resume else "first")
+    study = read_study(tiny_study_file(folder, seeds, edit, graphs))
+    runs, problems = plan_runs(study)
+    assert not problems, problems
+    return take_folder(tmp_path / "out", study, resume, study_inputs(study, runs))
 
 
-def begun(tmp_path: Path, seeds: str, graphs: Path = FIX) -> tuple[Path, dict]:
+def begun(tmp_path: Path, seeds: str, graphs: Path = FIXTURES / "study") -> tuple[Path, dict]:
     """A study folder begun (its manifest written, no run) with ``seeds``."""
-    from pasim_blocks.study.integrity import study_inputs
-    from pasim_blocks.study.model import read_study
-    from pasim_blocks.study.plan import plan_runs
-    from pasim_blocks.study.runner import take_folder
-
-    study = read_study(study_file(tmp_path / "first", seeds, graphs=graphs))
-    runs, problems = plan_runs(study)
-    assert not problems, problems
-    out = tmp_path / "out"
-    return out, take_folder(out, study, False, study_inputs(study, runs))
-
-
-def take(tmp_path: Path, seeds: str, edit: tuple[str, str] = ("", ""), graphs: Path = FIX) -> dict:
-    from pasim_blocks.study.integrity import study_inputs
-    from pasim_blocks.study.model import read_study
-    from pasim_blocks.study.plan import plan_runs
-    from pasim_blocks.study.runner import take_folder
-
-    study = read_study(study_file(tmp_path / "second", seeds, edit, graphs))
-    runs, problems = plan_runs(study)
-    assert not problems, problems
-    return take_folder(tmp_path / "out", study, True, study_inputs(study, runs))
+    return tmp_path / "out", take(tmp_path, seeds, resume=False, graphs=graphs)
 
 
 def test_added_seeds_are_taken_and_recorded(tmp_path, capsys):
@@ -84,7 +69,7 @@ def test_any_other_change_is_refused_and_nothing_is_written(tmp_path, seeds, edi
     out, _ = begun(tmp_path, "[0]")
     before = (out / "pasim-study.json").read_bytes()
     with pytest.raises(StudyError, match="changed since this folder's study began"):
-        take(tmp_path, seeds, edit)
+        take(tmp_path, seeds, edit=edit)
     assert (out / "pasim-study.json").read_bytes() == before
 
 
@@ -93,7 +78,7 @@ def test_added_seeds_with_a_changed_graph_are_refused(tmp_path):
     from pasim_blocks.study.runner import StudyError
 
     graphs = tmp_path / "graphs"
-    shutil.copytree(FIX, graphs)
+    shutil.copytree(FIXTURES / "study", graphs)
     begun(tmp_path, "[0]", graphs)
     graph = graphs / "small_wide.yaml"
     graph.write_text(graph.read_text() + "\n# edited\n")
@@ -109,26 +94,15 @@ def test_a_study_with_seeds_added_is_the_study_begun_with_them(tiny_study, tmp_p
     extended, scratch = tmp_path / "extended", tmp_path / "scratch"
     shutil.copytree(tiny_study, extended / "out")
     kept = {p: p.stat().st_mtime_ns for p in (extended / "out" / "runs").rglob("*") if p.is_file()}
-    code, err = pasim(
-        capsys,
-        "study",
-        str(study_file(extended, "[0, 1, 2]")),
-        "--out",
-        str(extended / "out"),
-        "--resume",
-        "--no-report",
-    )
-    assert code == 0, err
+
+    def study(folder: Path, *flags: str) -> None:
+        study_path = tiny_study_file(folder, "[0, 1, 2]")
+        code, err = pasim(capsys, "study", str(study_path), "--out", str(folder / "out"), *flags)
+        assert code == 0, err
+
+    study(extended, "--resume", "--no-report")
     assert all(p.stat().st_mtime_ns == t for p, t in kept.items()), "a kept run was rewritten"
-    code, err = pasim(
-        capsys,
-        "study",
-        str(study_file(scratch, "[0, 1, 2]")),
-        "--out",
-        str(scratch / "out"),
-        "--no-report",
-    )
-    assert code == 0, err
+    study(scratch, "--no-report")
     a = json.loads((extended / "out" / "scores.json").read_text())
     b = json.loads((scratch / "out" / "scores.json").read_text())
     assert a.keys() == b.keys()
