@@ -65,14 +65,14 @@ from .store import (
     RelayError,
     ResumeError,
     StoreLock,
+    SweepLayout,
     beam_dimension,
     clear_store,
-    create_root,
-    create_sweep,
     damaged_chunks,
     describe_holder,
     discard_store,
     input_digests,
+    lay_out,
     mark_complete,
     mark_incomplete,
     missing_arrays,
@@ -491,10 +491,11 @@ class DaskExecutor:
             at_most=chunks_at_once(self.workers, self.scheduler, LOCAL_SCHEDULERS),
         )
         replace_store(lock)
-        for k, (sweep, coords, n) in enumerate(layouts):
-            chunk = min(self.options.chunk_beams, n)
-            create_sweep(path, sweep_group(k), sweep, coords, n, chunk)
-        create_root(path, root, n_chunks)
+        sweeps = [
+            SweepLayout(sweep_group(k), sweep, coords, n, min(self.options.chunk_beams, n))
+            for k, (sweep, coords, n) in enumerate(layouts)
+        ]
+        lay_out(path, sweeps, root, n_chunks)
         return float(root.attrs[TIME_ON_TARGET])
 
     def _lay_out_again(

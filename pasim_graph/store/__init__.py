@@ -61,9 +61,11 @@ from .format import (
 )
 from .layout import (
     RelayError,
+    SweepLayout,
     create_root,
     create_sweep,
     create_volume,
+    lay_out,
     relay_missing,
     split_volume,
     sweep_template,
@@ -105,6 +107,7 @@ __all__ = [
     "StoreError",
     "StoreExistsError",
     "StoreLock",
+    "SweepLayout",
     "array_list",
     "arrays_on_disk",
     "beam_dimension",
@@ -125,6 +128,7 @@ __all__ = [
     "input_paths",
     "is_nan_fill",
     "is_store",
+    "lay_out",
     "listed_arrays",
     "mark_complete",
     "mark_incomplete",
