@@ -24,17 +24,17 @@ def write_region(
     """Write one chunk's beams into their region of ``group``, then flag the chunk (its
     index among all the run's chunks) as done."""
     import zarr
+    from zarr.core.sync import sync
 
     beam_dim = beam_dimension(sweep)
-    region_vars = [n for n, v in sweep.data_vars.items() if beam_dim in v.dims]
+    region_vars = [str(n) for n, v in sweep.data_vars.items() if beam_dim in v.dims]
     ds = sweep[region_vars].drop_vars(list(sweep.coords), errors="ignore")
     stop = start + sweep.sizes[beam_dim]
     # What is stored must be what was computed: xarray casts silently (complex to real drops
     # the Q channel), so a variable whose dtype differs from its stored array's is refused.
-    stored_group = zarr.open_group(str(path), path=group, mode="r+")
-    stored = {str(name): stored_group[str(name)] for name in region_vars}
+    stored = sync(_open_arrays(str(path), group, region_vars))
     for name in region_vars:
-        kind, dtype = ds[name].dtype.kind, stored[str(name)].dtype  # type: ignore[union-attr]
+        kind, dtype = ds[name].dtype.kind, stored[name].dtype
         if kind in "fciub" and dtype != ds[name].dtype:
             raise TypeError(
                 f"{path}: variable {name} is {ds[name].dtype} but its store holds {dtype}; "
@@ -42,11 +42,17 @@ def write_region(
             )
     # Every chunk is written, even one that holds only NaN, so that in a finished store a
     # missing chunk file is damage (check_chunks), never a silent NaN.
-    raw = [n for n in region_vars if writes_raw(ds[n], stored[str(n)])]
-    for name in raw:
-        array = stored[str(name)].with_config({"write_empty_chunks": True})  # type: ignore[union-attr]
-        where = tuple(slice(start, stop) if d == beam_dim else slice(None) for d in ds[name].dims)
-        array[where] = ds[name].values
+    raw = [n for n in region_vars if writes_raw(ds[n], stored[n])]
+    writes = [
+        (
+            stored[name],
+            tuple(slice(start, stop) if d == beam_dim else slice(None) for d in ds[name].dims),
+            ds[name].values,
+        )
+        for name in raw
+    ]
+    if writes:
+        sync(_write_arrays(writes))
     rest = [n for n in region_vars if n not in raw]
     with quiet_zarr_warnings():
         if rest:
@@ -59,6 +65,35 @@ def write_region(
             )
         flags = zarr.open_array(str(path), path=DONE, mode="r+")
         flags.with_config({"write_empty_chunks": True})[chunk_index] = 1
+
+
+async def _open_arrays(path: str, group: str, names: list[str]) -> dict[str, Any]:
+    """The arrays ``names`` of ``group``, opened at once (zarr's asynchronous arrays)."""
+    import asyncio
+
+    from zarr.api.asynchronous import open_group
+
+    stored = await open_group(store=path, path=group, mode="r+")
+    arrays = await asyncio.gather(*(stored.getitem(name) for name in names))
+    return dict(zip(names, arrays, strict=True))
+
+
+async def _write_arrays(writes: list[tuple[Any, tuple[slice, ...], np.ndarray]]) -> None:
+    """Write each (array, region, values) at once: one chunk's arrays in 0.11 s of CPU
+    rather than 0.19 one after another (generic radar, 8 beams, 23 arrays). Every write ends,
+    or fails, before the first failure is raised: none is left writing behind the caller."""
+    import asyncio
+
+    done = await asyncio.gather(
+        *(
+            array.with_config({"write_empty_chunks": True}).setitem(where, values)
+            for array, where, values in writes
+        ),
+        return_exceptions=True,
+    )
+    for outcome in done:
+        if isinstance(outcome, BaseException):
+            raise outcome
 
 
 def writes_raw(variable: xr.DataArray, stored: Any) -> bool:
