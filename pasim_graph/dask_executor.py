@@ -642,7 +642,8 @@ class DaskExecutor:
         # 10 MB (a run's inputs are megabytes to a few hundred: docs/scaling.md).
         with dask.config.set({"distributed.admin.large-graph-warning-threshold": "64GiB"}):
             local = {
-                k: client.submit(_given, _Box(self.sweeps[k]), key=f"{own}-sweep-{k}") for k in used
+                k: client.submit(_given, _Box(self.sweeps[k].for_chunks()), key=f"{own}-sweep-{k}")
+                for k in used
             }
             shared = client.submit(_given, _Box(static), key=f"{own}-static")
         futures = [

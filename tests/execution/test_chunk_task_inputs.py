@@ -1,0 +1,35 @@
+"""What a chunk task is sent: the executor without the once-per-run blocks' resources (their
+outputs travel once, with the run's shared inputs), computing the same chunk to the bit."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import xarray as xr
+
+from pasim_graph.executor import LocalExecutor, RunOptions, merge_products
+from pasim_graph.graph import load
+
+from ..conftest import GRAPHS
+
+
+def test_a_chunk_task_gets_the_per_chunk_blocks_resources_only():
+    sector = {"scan.azimuth_start_deg": 280.0, "scan.azimuth_stop_deg": 284.0}
+    executor = LocalExecutor(load(GRAPHS / "generic_radar.yaml", sector), RunOptions(chunk_beams=2))
+    executor.load()
+    static = executor.run_static()
+    assert "truth" in executor.plan.static and executor.plan.resources["truth"] is not None
+    shipped = pickle.loads(pickle.dumps(executor.for_chunks()))
+    assert set(shipped.plan.resources) == set(executor.plan.per_chunk) & set(
+        executor.plan.resources
+    )
+    assert "truth" not in shipped.plan.resources
+    assert executor.plan.resources["truth"] is not None  # the run's own executor keeps it
+    # The truth's sweep was most of what a worker was sent.
+    assert len(pickle.dumps(shipped)) < len(pickle.dumps(executor)) / 2
+    beams = np.arange(2, 4)
+    xr.testing.assert_identical(
+        merge_products(shipped.run_chunk(static, beams)),
+        merge_products(executor.run_chunk(static, beams)),
+    )
