@@ -97,13 +97,12 @@ def lay_out(path: str | Path, sweeps: list[SweepLayout], root: xr.Dataset, n_chu
     memory = MemoryStore(store_dict=staged)
     for s in sweeps:
         create_sweep(memory, s.group, s.sweep, s.beam_coords, s.n_beams, s.chunk_beams)
-    root_encoding = _root_encoding(root)
-    _write_root_variables(memory, root, root_encoding)
-    write_files(path, staged)
-    _write_done_flags(path, root, n_chunks, root_encoding)
+    _write_root_variables(memory, root)
+    _write_files(path, staged)
+    _write_done_flags(path, root, n_chunks)
 
 
-def write_files(path: str | Path, files: dict[str, Any]) -> None:
+def _write_files(path: str | Path, files: dict[str, Any]) -> None:
     """Write zarr's buffers ``files`` (key -> Buffer) under ``path``, in order, through zarr's
     local store (a file system's errors, ENOSPC among them, are raised as zarr raises them)."""
     from zarr.core.sync import sync
@@ -198,18 +197,11 @@ def create_root(path: str | Path, root: xr.Dataset, n_chunks: int) -> None:
     (run_state is None) and is laid out afresh, so a run killed or out of space while writing
     the template never leaves a half layout to resume.
     """
-    root_encoding = _root_encoding(root)
-    _write_root_variables(path, root, root_encoding)
-    _write_done_flags(path, root, n_chunks, root_encoding)
+    _write_root_variables(path, root)
+    _write_done_flags(path, root, n_chunks)
 
 
-def _root_encoding(root: xr.Dataset) -> dict[str, Any]:
-    return {str(n): encoding(v.dtype) for n, v in root.variables.items()}
-
-
-def _write_root_variables(
-    store: str | Path | Any, root: xr.Dataset, root_encoding: dict[str, Any]
-) -> None:
+def _write_root_variables(store: str | Path | Any, root: xr.Dataset) -> None:
     with quiet_zarr_warnings():
         root = root.copy()
         root.attrs[COMPLETE] = "false"
@@ -217,14 +209,12 @@ def _write_root_variables(
             store,
             mode="a",
             consolidated=False,
-            encoding={str(n): root_encoding[str(n)] for n in root.variables},
+            encoding={str(n): encoding(v.dtype) for n, v in root.variables.items()},
             write_empty_chunks=True,
         )
 
 
-def _write_done_flags(
-    path: str | Path, root: xr.Dataset, n_chunks: int, root_encoding: dict[str, Any]
-) -> None:
+def _write_done_flags(path: str | Path, root: xr.Dataset, n_chunks: int) -> None:
     # The done flags are the very last thing of the layout: their array existing is what
     # says the template is whole (run_state). The root's attributes, written first, list
     # every array of the layout (ARRAYS), the flags included.
