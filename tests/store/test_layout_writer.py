@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 import xarray as xr
 
 from pasim_graph.store.format import DONE, encoding, quiet_zarr_warnings
@@ -25,15 +26,17 @@ def files(root: Path) -> dict[str, bytes]:
     return {p.relative_to(root).as_posix(): p.read_bytes() for p in root.rglob("*") if p.is_file()}
 
 
-def real_run(tmp_path: Path) -> xr.DataTree:
-    run = tmp_path / "run.zarr"
+@pytest.fixture(scope="module")
+def real_run(tmp_path_factory) -> xr.DataTree:
+    """A real run's store, in memory: both tests lay out its sweep (neither changes it)."""
+    run = tmp_path_factory.mktemp("real") / "run.zarr"
     args = ["run", str(GRAPHS / "generic_radar.yaml"), "--sector", "280:283"]
     assert pasim_in_process(*args, "--set", "weather.method=expected", "--out", str(run))[0] == 0
     return xr.open_datatree(run, engine="zarr").load()
 
 
-def test_the_layout_is_the_one_xarray_writes(tmp_path):
-    sweep = real_run(tmp_path)["sweep_0"].to_dataset()
+def test_the_layout_is_the_one_xarray_writes(tmp_path, real_run):
+    sweep = real_run["sweep_0"].to_dataset()
     coords = {n: sweep[n].variable for n in sweep.coords if "azimuth" in sweep[n].dims}
     first = sweep.isel(azimuth=slice(0, 1))
     template = sweep_template(first, coords, 3, 2)
@@ -56,8 +59,8 @@ def test_the_layout_is_the_one_xarray_writes(tmp_path):
     assert [n for n in a if a[n] != b[n]] == []
 
 
-def test_the_staged_layout_is_the_one_laid_out_on_disk(tmp_path):
-    tree = real_run(tmp_path)
+def test_the_staged_layout_is_the_one_laid_out_on_disk(tmp_path, real_run):
+    tree = real_run
     sweep = tree["sweep_0"].to_dataset()
     root = tree.to_dataset(inherit=False).drop_vars(DONE)
     coords = {n: sweep[n].variable for n in sweep.coords if "azimuth" in sweep[n].dims}
