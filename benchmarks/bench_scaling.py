@@ -14,11 +14,18 @@ share of the cores its processes kept busy: CPU seconds of all its processes / (
 The makespan model, fitted on the one-worker run's record:
 
 - each beam's cost (its chunk's compute time spread over its beams, in scan order), a task's
-  fixed cost (writing its region and flag: the median write time) and the scheduler's cost
-  per task (the median gap between one task's end and the next one's start on a worker);
-- the run's fixed cost: its whole wall time less its chunk phase (imports, inputs, layout);
+  fixed cost (writing its region and flag: the median write time), the scheduler's cost
+  per task (the median gap between one task's end and the next one's start on a worker) and
+  a worker's first-use cost (its first chunk's compute time beyond a typical chunk's: the
+  prepared truth cells, paid once on every worker);
+- the run's fixed cost: its whole wall time less its chunk phase (imports, inputs, layout,
+  starting the cluster);
 - the chunk phase at W workers: the chunks that ``choose_chunk`` gives for W, handed in scan
-  order to whichever worker is free first (what dask does with equal priorities).
+  order to whichever worker is free first (what dask does with equal priorities), each
+  worker's first one paying the first-use cost; and never shorter than the phase's CPU
+  (every worker process's while its tasks ran, the `pasim` process's, and the first-use
+  cost once a worker) over the cores the machine has: the predictions for 16 workers and
+  more give each worker a core.
 
 The model is checked against every measurement made here (predicted and measured wall time,
 the 2-worker one within 15 %), then predicts 16, 64, 256 and 1,000 workers. The load average
@@ -165,55 +172,88 @@ def study_run(args: argparse.Namespace, workers: int, build: str, pythonpath: st
     }
 
 
-def beam_costs(record: dict) -> tuple[list[float], float, float]:
-    """Per-beam compute cost in scan order, a task's write cost, the scheduler's gap."""
+def beam_costs(record: dict) -> tuple[list[float], float, float, float]:
+    """Per-beam compute cost in scan order (a worker's first-use cost taken out of its first
+    chunk), a task's write cost, the scheduler's gap and the first-use cost (wall time)."""
     tasks = sorted(record["tasks"], key=lambda t: t["index"])
-    costs: list[float] = []
-    for t in tasks:
-        lo, hi = t["beams"]
-        costs += [(t["computed"] - t["start"]) / (hi - lo)] * (hi - lo)
-    write = statistics.median(t["stop"] - t["computed"] for t in tasks)
-    gaps = []
+    compute = {t["index"]: t["computed"] - t["start"] for t in tasks}
     by_worker: dict[str, list[dict]] = {}
     for t in tasks:
         by_worker.setdefault(t["worker"], []).append(t)
+    firsts = {min(ts, key=lambda t: t["start"])["index"] for ts in by_worker.values()}
+    rest = [c for i, c in compute.items() if i not in firsts] or list(compute.values())
+    typical = statistics.median(rest)
+    first_use = statistics.median(max(compute[i] - typical, 0.0) for i in firsts)
+    costs: list[float] = []
+    for t in tasks:
+        lo, hi = t["beams"]
+        own = compute[t["index"]] - (first_use if t["index"] in firsts else 0.0)
+        costs += [own / (hi - lo)] * (hi - lo)
+    write = statistics.median(t["stop"] - t["computed"] for t in tasks)
+    gaps = []
     for ts in by_worker.values():
         ts.sort(key=lambda t: t["start"])
         gaps += [b["start"] - a["stop"] for a, b in itertools.pairwise(ts)]
     gap = statistics.median(gaps) if gaps else 0.0
-    return costs, write, max(gap, 0.0)
+    return costs, write, max(gap, 0.0), first_use
 
 
-def makespan(costs: list[float], write: float, gap: float, workers: int, chunk: int) -> float:
-    """Chunks handed in scan order to whichever worker is free first."""
-    free = [0.0] * workers
+def makespan(
+    costs: list[float], write: float, gap: float, workers: int, chunk: int, first_use: float = 0.0
+) -> float:
+    """Chunks handed in scan order to whichever worker is free first; each worker's first
+    chunk pays the first-use cost (the prepared truth cells: once a worker)."""
+    free = [(0.0, i) for i in range(workers)]
+    started: set[int] = set()
     for start in range(0, len(costs), chunk):
-        t = heapq.heappop(free)
-        heapq.heappush(free, t + sum(costs[start : start + chunk]) + write + gap)
-    return max(free)
+        t, w = heapq.heappop(free)
+        extra = first_use if w not in started else 0.0
+        started.add(w)
+        heapq.heappush(free, (t + sum(costs[start : start + chunk]) + write + gap + extra, w))
+    return max(t for t, _ in free)
 
 
 def graph_model(row: dict) -> dict:
     record = row["record"]
-    costs, write, gap = beam_costs(record)
+    costs, write, gap, first_use = beam_costs(record)
     chunk = record["chunk_beams"]
-    phase = makespan(costs, write, gap, 1, chunk)
+    phase = makespan(costs, write, gap, 1, chunk, first_use)
+    tasks = record["tasks"]
+    steps = {s["kind"]: s for s in record["steps"]}
+    # The CPU the chunk phase needs beyond a worker's first use: every worker process's CPU
+    # while its tasks ran (their writes' threads and event loops included) and the `pasim`
+    # process's over the phase (the scheduler, nannies and client). Records from before
+    # these fields give the tasks' own threads only.
+    cpu = sum(t.get("process_cpu_s", t["cpu_s"]) for t in tasks)
+    first_cpu = min(first_use, max(t["cpu_s"] for t in tasks))
     return {
         "beams": len(costs),
         "beam_s": statistics.median(costs),
         "write_s": write,
         "gap_s": gap,
+        "first_use_s": first_use,
+        "phase_cpu_s": cpu - first_cpu + steps.get("chunks", {}).get("cpu_s", 0.0),
+        "first_use_cpu_s": first_cpu,
         "fixed_s": row["wall_s"] - phase,
         "costs": costs,
     }
 
 
-def predict(model: dict, workers: int) -> dict:
+def predict(model: dict, workers: int, cores: int | None = None) -> dict:
+    """The run on ``workers`` workers: the chunks scheduled as dask does, and never faster
+    than ``cores`` (the machine's; one a worker when not given) can give the phase's CPU."""
+    cores = min(cores or workers, workers)
     chunk = choose_chunk(model["beams"], workers)
-    phase = makespan(model["costs"], model["write_s"], model["gap_s"], workers, chunk)
+    scheduled = makespan(
+        model["costs"], model["write_s"], model["gap_s"], workers, chunk, model["first_use_s"]
+    )
+    cpu = model["phase_cpu_s"] + workers * model["first_use_cpu_s"]
+    phase = max(scheduled, cpu / cores)
     return {
         "workers": workers,
         "chunk": chunk,
+        "scheduled_s": scheduled,
+        "cpu_bound_s": cpu / cores,
         "chunks_s": phase,
         "wall_s": model["fixed_s"] + phase,
     }
@@ -332,7 +372,8 @@ def main() -> int:
     if ones:
         model = graph_model(ones[0])
         summary["model"] = {k: v for k, v in model.items() if k != "costs"}
-        checks += model_checks(rows, "graph", lambda w: predict(model, w)["wall_s"])
+        cores = os.cpu_count() or 1
+        checks += model_checks(rows, "graph", lambda w: predict(model, w, cores)["wall_s"])
         summary["predicted"] = [predict(model, w) for w in (1, 2, 16, 64, 256, 1000)]
     sones = [r for r in rows if r["case"] == "study" and r["build"] == "new" and r["workers"] == 1]
     if sones:

@@ -100,7 +100,7 @@ class RunReport:
     chunks_total: int
     chunks_run: int
     beams: int
-    seconds_setup: float = 0.0  # reading inputs, once-per-run blocks, the store's layout
+    seconds_setup: float = 0.0  # inputs, once-per-run blocks, the layout, starting the cluster
     seconds_chunks: float = 0.0  # running and writing the chunks
     sweeps: int = 1
     time_on_target_s: float = 0.0  # sum of the dwells of every beam of every sweep
@@ -160,7 +160,7 @@ def _run_and_write(
     """
     if STOPPING.is_set():
         return None
-    start, cpu = time.time(), time.thread_time()
+    start, cpu, process_cpu = time.time(), time.thread_time(), time.process_time()
     _, sweep = split_volume(merge_products(executor.run_chunk(static, beams)), attrs)
     computed = time.time()
     if STOPPING.is_set():
@@ -176,6 +176,7 @@ def _run_and_write(
         "computed": computed,
         "stop": time.time(),
         "cpu_s": time.thread_time() - cpu,
+        "process_cpu_s": time.process_time() - process_cpu,
         "worker": worker_name(),
         "bytes": int(sum(v.nbytes for v in sweep.data_vars.values() if beam_dim in v.dims)),
     }
@@ -420,20 +421,42 @@ class DaskExecutor:
                 plan = sweep.plan
                 keep = {*plan.per_chunk, *plan.sweep_level}
                 plan.resources = {n: r for n, r in plan.resources.items() if n in keep}
+            # Waiting for the cluster to start is set-up: the chunk phase begins when chunks
+            # can run (before, a cluster slower to start than the layout was counted in it).
+            connected = client.result() if client is not None else None
             t1 = time.perf_counter()
             if STOPPING.is_set():
                 # A run in another thread than the one signals stop (a study's runs at once).
                 raise Stopped(signal.SIGINT)
             keys = {i: chunk_key(key, path, i) for i in todo}
-            if client is not None:
+            if connected is not None:
                 # Workers are given the store's absolute path: a relative one would be taken
                 # from each worker's own working folder (another folder on another machine).
                 where = str(path.absolute())
-                tasks = self._compute_distributed(
-                    client.result(), todo, keys, starts, static, where, attrs
+                tasks = record.timed(
+                    "chunks",
+                    self._compute_distributed,
+                    connected,
+                    todo,
+                    keys,
+                    starts,
+                    static,
+                    where,
+                    attrs,
+                    clock=time.process_time,
                 )
             else:
-                tasks = self._compute_local(todo, keys, starts, static, str(path), attrs)
+                tasks = record.timed(
+                    "chunks",
+                    self._compute_local,
+                    todo,
+                    keys,
+                    starts,
+                    static,
+                    str(path),
+                    attrs,
+                    clock=time.process_time,
+                )
             t2 = time.perf_counter()
             if STOPPING.is_set() or any(t is None for t in tasks):
                 # Stopped in another thread than the one signals stop: the chunks that saw the

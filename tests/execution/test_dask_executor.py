@@ -73,7 +73,12 @@ def test_chunk_size_and_workers_do_not_change_the_numbers(tmp_path):
     for t in tasks:
         assert t["kind"] == "chunk" and 0 <= t["start"] <= t["computed"] <= t["stop"]
         assert t["bytes"] > 0 and t["cpu_s"] > 0
-    assert {"load", "static", "layout", "connect"} <= {s["kind"] for s in record["steps"]}
+        # The worker process's CPU while the task ran holds its thread's (and its writes').
+        assert t["process_cpu_s"] >= t["cpu_s"]
+    steps = {s["kind"]: s for s in record["steps"]}
+    assert {"load", "static", "layout", "connect", "chunks"} <= set(steps)
+    # The chunk phase begins when the cluster is up and the store laid out.
+    assert steps["chunks"]["start"] >= max(steps["connect"]["stop"], steps["layout"]["stop"])
     # A store one beam at a time on one thread records its 16 tasks.
     assert len(read_tasks(one)[0]["tasks"]) == 16
 
