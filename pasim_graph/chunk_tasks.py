@@ -1,0 +1,246 @@
+"""A run's chunk tasks and where they run: each task runs the graph on one chunk of one
+sweep's beams and writes that region of the store (on a worker, or a thread of this process);
+:func:`compute_local` hands them to dask's threads here, :func:`compute_distributed` to a
+``dask.distributed`` cluster, with the run's shared inputs sent once. :mod:`.dask_executor`
+decides which chunks run and what happens before and after them."""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import os
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .cluster import SchedulerError, progress_bar, worker_name
+from .executor import LocalExecutor, merge_products
+from .fm301 import sweep_group
+from .interrupt import STOPPING
+from .store import beam_dimension, split_volume, write_region
+
+
+def chunk_key(run: str, path: str | Path, index: int) -> str:
+    """The Dask task key of one chunk: the same for the same run, store and chunk, every time.
+
+    The store is part of it: a cluster runs a key once, for whoever asks first, so two runs
+    of one run key (a study's reference runs that several points share) in flight at once
+    into two stores would otherwise both be given the chunks written into the first one."""
+    where = hashlib.sha256(str(Path(path).resolve()).encode()).hexdigest()[:12]
+    return f"pasim-chunk-{run}-{where}-{index}"
+
+
+def run_and_write(
+    executor: LocalExecutor,
+    static: dict,
+    beams: np.ndarray,
+    index: int,
+    path: str,
+    attrs: dict[str, Any],
+    group: str = "sweep_0",
+) -> dict[str, Any] | None:
+    """One task: run the graph on a chunk of one sweep's beams and write its region of that
+    sweep's group (on a worker); ``index`` numbers the chunk among all the run's chunks.
+
+    Returns the task's record (when it ran, where, its CPU time and the bytes it wrote), or
+    None when the run was stopped before it wrote.
+    """
+    if STOPPING.is_set():
+        return None
+    start, cpu, process_cpu = time.time(), time.thread_time(), time.process_time()
+    _, sweep = split_volume(merge_products(executor.run_chunk(static, beams)), attrs)
+    computed = time.time()
+    if STOPPING.is_set():
+        return None  # the run was stopped while this chunk ran: it writes nothing more
+    write_region(path, sweep, int(beams[0]), index, group)
+    beam_dim = beam_dimension(sweep)
+    return {
+        "kind": "chunk",
+        "index": index,
+        "group": group,
+        "beams": [int(beams[0]), int(beams[-1]) + 1],
+        "start": start,
+        "computed": computed,
+        "stop": time.time(),
+        "cpu_s": time.thread_time() - cpu,
+        "process_cpu_s": time.process_time() - process_cpu,
+        "worker": worker_name(),
+        "bytes": int(sum(v.nbytes for v in sweep.data_vars.values() if beam_dim in v.dims)),
+    }
+
+
+def compute_local(
+    sweeps: list[LocalExecutor],
+    todo: list[int],
+    keys: dict[int, str],
+    starts: list[tuple[int, np.ndarray]],
+    static: dict,
+    path: str,
+    attrs: dict[str, Any],
+    *,
+    scheduler: str | None,
+    progress: bool,
+) -> list[dict[str, Any] | None]:
+    """Run the chunks ``todo`` on dask's threads in this process (``scheduler`` "sync": one
+    after another in the calling thread); their records, in the order of ``todo``."""
+    import dask
+    import dask.local
+    import dask.threaded
+    from dask.diagnostics import ProgressBar
+    from threadpoolctl import threadpool_limits
+
+    tasks = [
+        dask.delayed(run_and_write, pure=False)(
+            sweeps[starts[i][0]],
+            static,
+            starts[i][1],
+            i,
+            path,
+            attrs,
+            sweep_group(starts[i][0]),
+            dask_key_name=keys[i],
+        )
+        for i in todo
+    ]
+    # Chunks already fill every core; BLAS threads inside each would oversubscribe them
+    # and spin (a tenfold slowdown of small matrix products was measured). Dask's
+    # distributed workers get the same limit from their nanny's environment.
+    # Our own pool, so that a run that is stopped waits for the chunks already running
+    # (they write nothing more) instead of leaving threads writing behind its back.
+    pool = ThreadPoolExecutor(os.cpu_count() or 1) if scheduler != "sync" else None
+    try:
+        with (
+            threadpool_limits(limits=1, user_api="blas"),
+            ProgressBar(out=sys.stderr) if progress else contextlib.nullcontext(),
+        ):
+            # The schedulers' functions, not their names: a name makes dask import
+            # distributed to look for a client (half a second of every local run).
+            if pool is None:
+                return list(dask.compute(*tasks, scheduler=dask.local.get_sync))
+            return list(dask.compute(*tasks, scheduler=dask.threaded.get, pool=pool))
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+
+def compute_distributed(
+    client: Any,
+    sweeps: list[LocalExecutor],
+    todo: list[int],
+    keys: dict[int, str],
+    starts: list[tuple[int, np.ndarray]],
+    static: dict,
+    path: str,
+    attrs: dict[str, Any],
+    *,
+    scheduler: str | None,
+    progress: bool,
+) -> list[dict[str, Any] | None]:
+    """Run the chunks ``todo`` on the cluster of ``client``; their records, in the order of
+    ``todo``. A failure is raised once every chunk has ended (none is left writing)."""
+    from distributed import as_completed
+
+    if not todo:
+        return []
+    used = sorted({starts[i][0] for i in todo})
+    # The shared inputs (each sweep's executor, the once-per-run blocks' outputs) go as
+    # tasks that return them (_given), not as scattered data: the scheduler keeps how to
+    # make them, so the worker holding them may be lost (distributed's memory manager
+    # keeps one copy of what the chunks still need) and they are made again on another.
+    # Scattered data it cannot make again: a worker lost while it held the last copy
+    # cancelled the chunks waiting for it ("lost dependencies"). Their keys are this
+    # run's own (a fresh token: never another run's in flight on the same cluster).
+    own = f"pasim-inputs-{os.urandom(8).hex()}"
+    import dask
+
+    # The inputs travel with their task through the scheduler: distributed warns above
+    # 10 MB (a run's inputs are megabytes to a few hundred: docs/scaling.md).
+    with dask.config.set({"distributed.admin.large-graph-warning-threshold": "64GiB"}):
+        local = {
+            k: client.submit(_given, _Box(sweeps[k].for_chunks()), key=f"{own}-sweep-{k}")
+            for k in used
+        }
+        shared = client.submit(_given, _Box(static), key=f"{own}-static")
+    futures = [
+        client.submit(
+            run_and_write,
+            local[starts[i][0]],
+            shared,
+            starts[i][1],
+            i,
+            path,
+            attrs,
+            sweep_group(starts[i][0]),
+            key=keys[i],
+        )
+        for i in todo
+    ]
+    from distributed.client import FutureCancelledError, FuturesCancelledError
+    from distributed.comm.core import CommClosedError
+
+    index = {f.key: i for f, i in zip(futures, todo, strict=True)}
+    records: dict[int, dict[str, Any] | None] = {}
+    failed: dict[int, Any] = {}
+    bar = progress_bar(client, futures) if progress else None
+    try:
+        # Each chunk's record is taken as it ends and the chunk released: a worker lost
+        # afterwards holds nothing of it that the scheduler would run it again for (the
+        # records of chunks done stayed on their workers until all were done: a worker
+        # lost then re-ran its chunks already written). Every chunk ends before a failure
+        # is raised: none is left writing behind the run's back.
+        # The client's own loop: as_completed would take the latest client made in
+        # this process (a study's runs share one; a test may watch with another).
+        for future in as_completed(futures, loop=client.loop):
+            i = index[future.key]
+            if future.status == "finished":
+                records[i] = future.result()
+                future.release()
+            else:
+                failed[i] = future
+        if failed:
+            failed[min(failed)].result()  # raises the chunk's error (or its cancelling)
+        return [records[i] for i in todo]
+    except (
+        FutureCancelledError,
+        FuturesCancelledError,
+        CommClosedError,
+        TimeoutError,
+        OSError,  # a record fetched as the scheduler goes away
+    ) as exc:
+        # The chunks written so far are kept and flagged; the rest are run by --resume,
+        # on this cluster or another.
+        cancelled = (FutureCancelledError, FuturesCancelledError)
+        if client.status == "running" and not isinstance(exc, cancelled):
+            raise
+        where = scheduler or "the local cluster"
+        if client.status == "running":
+            # The scheduler is there and cancelled a chunk itself.
+            reason = getattr(exc, "reason", None) or "unknown"
+            raise SchedulerError(
+                f"the scheduler ({where}) cancelled a chunk (reason: {reason}); the chunks "
+                "written are kept: complete the store with --resume (any cluster, or none)"
+            ) from None
+        raise SchedulerError(
+            f"lost the connection to the scheduler ({where}) during the run; the chunks "
+            "written are kept: complete the store with --resume (any cluster, or none)"
+        ) from None
+    finally:
+        if bar is not None:
+            bar.join(timeout=1.0)
+
+
+class _Box:
+    """What a run's shared inputs travel in to their task: opaque to dask (a dict's values
+    are not looked into for keys and tasks)."""
+
+    def __init__(self, value: Any):
+        self.value = value
+
+
+def _given(box: _Box) -> Any:
+    """A task that makes a run's shared input: the value it was given (on a worker)."""
+    return box.value
