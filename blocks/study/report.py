@@ -30,7 +30,7 @@ from .design_figures import (
     sweep_figure,
     sweep_verdicts,
 )
-from .figures import Figure, canvas, uri
+from .figures import Figure, canvas, panel_grid, panel_row, uri
 from .hardware_figures import hardware_figure, hardware_table
 from .runner import MANIFEST, StudyError, read_manifest
 from .statistics import FIELDS
@@ -386,8 +386,8 @@ def ppi_figure(name: str, panels: list[tuple[str, Any]]) -> Figure:
     vmin, vmax = _limits([s for _, s in panels], name)
     truth_sweep = panels[0][1]
     cols = [("truth", truth_sweep, f"truth_{name}")] + [(n, s, name) for n, s in panels]
-    fig = canvas(3.3 * len(cols) + 0.8, 3.6)
-    axes = fig.subplots(1, len(cols), squeeze=False)[0]
+    fig = canvas(3.3 * len(cols) + 0.8, 3.6, layout=None)
+    axes, bar = panel_row(fig, len(cols))
     extent = None
     mesh = None
     for ax, (title, sweep, var) in zip(axes, cols, strict=True):
@@ -411,7 +411,9 @@ def ppi_figure(name: str, panels: list[tuple[str, Any]]) -> Figure:
         ax.tick_params(labelsize=7)
     axes[0].set_ylabel("km north", fontsize=8)
     if mesh is not None:
-        fig.colorbar(mesh, ax=list(axes), label=f"{name} ({style.units})", shrink=0.9)
+        fig.colorbar(mesh, cax=bar, label=f"{name} ({style.units})")
+    else:
+        bar.set_visible(False)
     return Figure(
         f"{name}: {style.label}",
         uri(fig),
@@ -444,8 +446,8 @@ def histogram_figure(panels: list[tuple[str, Any]]) -> Figure:
     from ..products.moment_figures import STYLES
 
     names = [n for n in FIELDS if any(f"error_{n}" in s for _, s in panels)]
-    fig = canvas(2.9 * len(panels) + 0.6, 2.6 * len(names))
-    axes = fig.subplots(len(names), len(panels), squeeze=False)
+    fig = canvas(2.9 * len(panels) + 0.6, 2.6 * len(names), layout=None)
+    axes = panel_grid(fig, len(names), len(panels))
     for row, name in zip(axes, names, strict=True):
         lo, hi = _limits([s for _, s in panels], name)
         if name == "RHOHV":
