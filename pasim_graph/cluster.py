@@ -115,7 +115,7 @@ def warm_engine() -> None:
 #: What a LocalCluster started here does not run: the workers' statistical profiler (a
 #: stack sample every 10 ms, for a dashboard this cluster does not serve) and the event-loop
 #: ticks, system monitors and memory checks at dashboard rates. On the 2-core machine, with
-#: both cores computing chunks, these took 1.3 s of CPU a worker and 1.4 s in this process
+#: both cores computing chunks, these took 1.1-1.3 s of CPU a worker and 1.6 s in this process
 #: over a 15 s chunk phase (per-thread ``schedstat``): time the chunk threads spent waiting
 #: for a core. The workers still report their memory, and the nannies still restart a
 #: worker over its limit, every half second.
