@@ -373,36 +373,30 @@ class DaskExecutor:
                 # A run in another thread than the one signals stop (a study's runs at once).
                 raise Stopped(signal.SIGINT)
             keys = {i: chunk_key(key, path, i) for i in todo}
+            compute = partial(compute_local, scheduler=self.scheduler, progress=self.progress)
+            where = str(path)
             if connected is not None:
+                compute = partial(
+                    compute_distributed,
+                    connected,
+                    scheduler=self.scheduler,
+                    progress=self.progress,
+                )
                 # Workers are given the store's absolute path: a relative one would be taken
                 # from each worker's own working folder (another folder on another machine).
                 where = str(path.absolute())
-                tasks = record.timed(
-                    "chunks",
-                    partial(compute_distributed, scheduler=self.scheduler, progress=self.progress),
-                    connected,
-                    self.sweeps,
-                    todo,
-                    keys,
-                    starts,
-                    static,
-                    where,
-                    attrs,
-                    clock=time.process_time,
-                )
-            else:
-                tasks = record.timed(
-                    "chunks",
-                    partial(compute_local, scheduler=self.scheduler, progress=self.progress),
-                    self.sweeps,
-                    todo,
-                    keys,
-                    starts,
-                    static,
-                    str(path),
-                    attrs,
-                    clock=time.process_time,
-                )
+            tasks = record.timed(
+                "chunks",
+                compute,
+                self.sweeps,
+                todo,
+                keys,
+                starts,
+                static,
+                where,
+                attrs,
+                clock=time.process_time,
+            )
             t2 = time.perf_counter()
             if STOPPING.is_set() or any(t is None for t in tasks):
                 # Stopped in another thread than the one signals stop: the chunks that saw the

@@ -326,20 +326,21 @@ def _grid(fig: Any, rows: int, title: bool) -> tuple[Any, Any]:
     slot = (w - m["left"] - m["right"] - 2 * m["gap"]) / 3
     width = slot - m["pad"] - m["bar"] - m["bar_labels"]
     height = (h - top - m["bottom"] - (rows - 1) * m["row_gap"]) / rows
-    axes = np.empty((rows, 3), object)
-    bars = np.empty((rows, 3), object)
-    for r in range(rows):
-        y = h - top - r * (height + m["row_gap"]) - height
-        for c in range(3):
-            x = m["left"] + c * (slot + m["gap"])
-            axes[r, c] = fig.add_axes((x / w, y / h, width / w, height / h))
-    for r in range(rows):
-        y = h - top - r * (height + m["row_gap"]) - height
-        for c in range(3):
-            x = m["left"] + c * (slot + m["gap"]) + width + m["pad"]
-            bars[r, c] = fig.add_axes((x / w, y / h, m["bar"] / w, height / h))
-            bars[r, c].set_visible(False)
-    return axes, bars
+    # Each panel's lower left corner (inches), row by row; the panels are added before the
+    # bars, so that a figure's first axes are its panels.
+    corners = [
+        (m["left"] + c * (slot + m["gap"]), h - top - r * (height + m["row_gap"]) - height)
+        for r in range(rows)
+        for c in range(3)
+    ]
+    axes = [fig.add_axes((x / w, y / h, width / w, height / h)) for x, y in corners]
+    bars = [
+        fig.add_axes(((x + width + m["pad"]) / w, y / h, m["bar"] / w, height / h))
+        for x, y in corners
+    ]
+    for bar in bars:
+        bar.set_visible(False)
+    return np.array(axes, object).reshape(rows, 3), np.array(bars, object).reshape(rows, 3)
 
 
 def store_figure(
