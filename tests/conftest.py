@@ -4,12 +4,38 @@ import contextlib
 import io
 import json
 import os
+import platform
 import subprocess
 import sys
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import pytest
+
+
+def _pin_numerics() -> None:
+    """NumPy picks its SIMD kernels by the CPU it finds (AVX2 on one machine, AVX-512 on the
+    next) and OpenBLAS its own likewise; their exp, sin and products differ in the last bit,
+    and so does every number a graph gives (float32 moments by up to 4e-6 dB of DBZH, 5e-5 deg
+    of PHIDP: docs/scaling.md). The graphs' fingerprints (tests/fingerprints.json) are
+    recorded under the AVX2/FMA3 kernels (NumPy's X86_V3, OpenBLAS's Haswell) that every
+    x86-64 machine since 2015 has: each process of the suite (test workers, and the `pasim`
+    and Dask processes they start, which inherit the environment) runs those, whatever the
+    machine has beyond them. Set before NumPy is imported (pyproject's ``-p no:zarr`` keeps
+    zarr's pytest plugin from importing it first); a variable already set is left alone."""
+    if platform.machine() not in ("x86_64", "AMD64"):
+        return
+    try:
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+        flags = next(line for line in lines if line.startswith("flags")).split()
+    except (OSError, StopIteration):
+        return
+    if {"avx2", "fma"} <= set(flags):  # Haswell kernels on a CPU without them would crash
+        os.environ.setdefault("NPY_DISABLE_CPU_FEATURES", "X86_V4 AVX512_ICL AVX512_SPR")
+        os.environ.setdefault("OPENBLAS_CORETYPE", "Haswell")
+
+
+_pin_numerics()
 
 ROOT = Path(__file__).resolve().parents[1]
 GRAPHS = ROOT / "graphs"

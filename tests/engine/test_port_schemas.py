@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import pytest
 import xarray as xr
-from threadpoolctl import threadpool_limits
+from threadpoolctl import threadpool_info, threadpool_limits
 
 from pasim_graph import (
     DATASET,
@@ -348,7 +348,33 @@ def fingerprint(sweep: Any) -> str:
     return digest.hexdigest()[:24]
 
 
+#: The kernels the fingerprints were recorded under: the last bits of every number depend on
+#: them (tests/conftest.py pins them for the suite's processes on an x86-64 with AVX2).
+RECORDED_NUMERICS = "NumPy X86_V3, OpenBLAS Haswell"
+
+
+def numerics() -> str:
+    """The SIMD kernels this process's NumPy dispatches to and the cores its OpenBLAS uses."""
+    from numpy.lib.introspect import opt_func_info
+
+    targets = {t["current"] for kinds in opt_func_info().values() for t in kinds.values()}
+    blas = {i.get("architecture") for i in threadpool_info() if i["internal_api"] == "openblas"}
+    return (
+        f"NumPy {'+'.join(sorted(t for t in targets if not t.startswith('baseline')))}, "
+        f"OpenBLAS {'+'.join(sorted(map(str, blas)))}"
+    )
+
+
 def check_fingerprint(label: str, sweep: Any) -> None:
+    here = numerics()
+    if here != RECORDED_NUMERICS:
+        if os.environ.get("OPENBLAS_CORETYPE") == "Haswell":
+            pytest.fail(
+                f"this process runs {here}, not the {RECORDED_NUMERICS} that tests/conftest.py "
+                "pins: NPY_DISABLE_CPU_FEATURES set otherwise, or NumPy imported before the pin (a "
+                "pytest plugin? see pyproject's addopts)"
+            )
+        pytest.skip(f"fingerprints are of {RECORDED_NUMERICS}; this machine runs {here}")
     value = fingerprint(sweep)
     if os.environ.get("PASIM_UPDATE_FINGERPRINTS"):
         # Test workers (pytest-xdist) may record at once: one at a time through a file lock.

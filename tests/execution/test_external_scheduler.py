@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from distributed import WorkerPlugin
 
 from pasim_graph.cli import main
 from pasim_graph.shared_storage import PREFIX, StorageError, check_shared_storage, probe_on_worker
@@ -175,52 +176,50 @@ def test_a_run_on_an_external_scheduler_is_the_local_run(
     assert not list(tmp_path.glob(f"{PREFIX}*")), "the storage probe left its files"
 
 
-class KillOnChunk:
-    """A thread that watches ``cluster``'s scheduler and kills (-9) the worker that holds a
-    run's shared inputs (its ``pasim-inputs-`` tasks) as soon as it is also given a chunk:
-    the worker whose loss the run's inputs must survive. ``killed`` names it afterwards."""
+class KillOnChunk(WorkerPlugin):
+    """A worker plugin: the first worker that starts a chunk (``pasim-chunk-``) while holding
+    the run's shared inputs (``pasim-inputs-``) kills itself (-9) before running it: the
+    worker whose loss the run's inputs must survive. Decided inside the worker, at the
+    transition itself (a client polling the scheduler from outside could miss it on a fast
+    machine: a chunk of this run is a few tens of ms); one worker only, by creating ``claim``
+    (the workers share this machine's file system), which then names it."""
 
-    def __init__(self, cluster: Cluster, limit_s: float = 120.0):
-        import threading
+    name = "pasim-test-kill-on-chunk"
 
-        self.cluster, self.limit_s = cluster, limit_s
-        self.killed: str | None = None
-        self.stop, self.ready = threading.Event(), threading.Event()
-        self.thread = threading.Thread(target=self._watch, daemon=True)
-        self.thread.start()
-        # Watching before the run starts: a client made while the run sets up could come
-        # too late (its chunks all done).
-        if not self.ready.wait(60):
-            pytest.fail("the watching client did not connect in 60 s")
+    def __init__(self, claim: Path):
+        super().__init__()
+        self.claim = str(claim)
 
-    def _watch(self) -> None:
-        from distributed import Client
+    def setup(self, worker) -> None:
+        self.worker = worker
 
-        # Not the process's default client: a default client sets dask's global scheduler
-        # and, closed before the run's own client, left "dask.distributed" set for every
-        # later test of this process (the run's client restores what it found).
-        with Client(self.cluster.address, timeout="10s", set_as_default=False) as watch:
-            names = {a: w["name"] for a, w in watch.scheduler_info()["workers"].items()}
-            self.ready.set()
-            deadline = time.monotonic() + self.limit_s
-            while not self.stop.is_set() and time.monotonic() < deadline:
-                holders = {
-                    a
-                    for key, who in watch.who_has().items()
-                    if str(key).startswith("pasim-inputs-")
-                    for a in who
-                }
-                for address, keys in watch.processing().items():
-                    if address in holders and any(str(k).startswith("pasim-chunk-") for k in keys):
-                        worker = int(names[address].removeprefix("w"))
-                        self.cluster.workers[worker].send_signal(signal.SIGKILL)
-                        self.killed = names[address]
-                        return
-                time.sleep(0.01)
+    def transition(self, key, start: str, finish: str, **kwargs) -> None:
+        if finish != "executing" or not str(key).startswith("pasim-chunk-"):
+            return
+        if not any(str(k).startswith("pasim-inputs-") for k in self.worker.data):
+            return
+        try:
+            fd = os.open(self.claim, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+        except FileExistsError:
+            return
+        os.write(fd, str(self.worker.name).encode())
+        os.close(fd)
+        os.kill(os.getpid(), signal.SIGKILL)
 
-    def join(self) -> None:
-        self.stop.set()
-        self.thread.join()
+
+def kill_on_chunk(cluster: Cluster, claim: Path) -> None:
+    """Register :class:`KillOnChunk` on every worker of ``cluster`` (sent by value: the
+    workers cannot import this test module)."""
+    import cloudpickle
+    from distributed import Client
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    try:
+        # Not the process's default client: it would set dask's global scheduler.
+        with Client(cluster.address, timeout="10s", set_as_default=False) as client:
+            client.register_plugin(KillOnChunk(claim))
+    finally:
+        cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
 
 
 def test_a_worker_killed_as_it_starts_a_chunk_is_survived(tmp_path, reference, capsys):
@@ -228,14 +227,14 @@ def test_a_worker_killed_as_it_starts_a_chunk_is_survived(tmp_path, reference, c
     given a chunk: the run completes on the other worker and its store holds the values of
     the run on this process's threads (the independent computation), bit for bit."""
     own = Cluster(tmp_path / "home")
+    claim = tmp_path / "killed"
     try:
-        killer = KillOnChunk(own)
+        kill_on_chunk(own, claim)
         out = tmp_path / "run.zarr"
         code, err = pasim(capsys, *RUN, "--scheduler", own.address, "--out", str(out))
-        killer.join()
-        assert killer.killed is not None, "no worker was given a chunk while holding the inputs"
+        assert claim.exists(), "no worker was given a chunk while holding the inputs"
         assert code == 0, err
-        assert own.workers[int(killer.killed[1:])].wait() == -signal.SIGKILL
+        assert own.workers[int(claim.read_text()[1:])].wait(30) == -signal.SIGKILL
     finally:
         own.close()
     same_sweep(out, reference)
