@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -49,7 +50,7 @@ from .combined import draw_combined, draw_combined_coupled, draw_tones, draw_ton
 from .coverage import check_coverage
 from .dsd import DropSizes
 from .expected import expected_correlations, expected_correlations_coupled
-from .fasttime import range_correlate, range_model
+from .fasttime import RangeModel, range_correlate, range_model
 from .motion import moving, platform_broadening, shift_echo
 from .per_cell import draw_per_cell, draw_per_cell_coupled
 from .polarimetry import (
@@ -63,6 +64,31 @@ from .width import WidthParams, radar_widths, scan_broadening
 #: Fidelity levels of the weather channel, fastest first.
 METHODS = ("expected", "combined", "covariance", "monte_carlo")
 _COVARIANCE = {"method": "covariance", "support_db": -100.0}
+
+
+@dataclass(frozen=True)
+class _Run:
+    """What every beam of a chunk shares (:meth:`WeatherChannel._run`)."""
+
+    method: str
+    dtype: type
+    lam: float  # wavelength (m)
+    prt: float  # the drawing grid's step (s): the PRT, or a staggered scan's unit u
+    prt_t1: float  # the scan's (first) PRT (s)
+    pulses: int  # pulses on the drawing grid
+    staggered: tuple[float, np.ndarray] | None  # u and the pulses' indices on the grid
+    rng_m: np.ndarray  # the truth's gate ranges
+    gate_m: float
+    width_deg: float  # the truth's radial width
+    az_truth: np.ndarray
+    dual: bool  # the truth is dual-polarisation
+    mode: str  # transmission: shv or ahv
+    beta: float  # transmit differential phase (deg)
+    need_v: bool  # the V channel is drawn
+    coupled: bool  # H and V coupled through complex co- and cross-polar fields
+    k0: float  # the radar equation's constant (W per sr m of truth power)
+    volume: bool  # a volume truth
+    drawn: int  # receive channels drawn (0 at the expected level)
 
 
 class WeatherChannel(PropagationParams, WidthParams, Block):
@@ -265,6 +291,25 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         truth, beams = inputs["truth"], inputs["beams"]
         pattern, response = inputs["pattern"], inputs["range_response"]
+        run = self._run(truth, beams, pattern, chunk)
+        broadening = scan_broadening(beams, pattern, run.lam, self.p["antenna_motion"])
+        # On a moving platform, the motion across the beam widens each beam's spectrum.
+        broadening = platform_broadening(beams, pattern, broadening)
+        path = self._propagated(truth, run.volume)
+        iq, corr, ranges = self._echoes(run, inputs, chunk, broadening, path)
+        iq, corr, overlay = self._received(run, iq, corr, beams, response)
+        calibration = self._calibration(run, inputs, ranges, path, overlay)
+        power = corr[..., :2].real.astype(np.float32)
+        return {
+            "iq": np.moveaxis(iq.astype(np.complex64, copy=False), 1, -1),
+            "signal_power": power,
+            "echo_correlations": corr,
+            "calibration": calibration,
+        }
+
+    def _run(self, truth: xr.Dataset, beams: xr.Dataset, pattern: xr.Dataset, chunk: Chunk) -> _Run:
+        """What every beam of the chunk shares: the radar's and the truth's geometry, the
+        channels drawn, and the radar equation's constant."""
         method = self.p["method"]
         dtype = np.float32 if self.p["precision"] == "float32" else np.float64
         lam = SPEED_OF_LIGHT / self.p["frequency_hz"]
@@ -275,20 +320,12 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
             # The series are drawn on a uniform grid of step u (T1 = a u, T2 = b u) and
             # sampled at the pulse times.
             prt, pulses = staggered[0], int(staggered[1][-1]) + 1
-        rng_m = truth["range"].values
-        gate_m = float(truth.attrs["gate_width_m"])
-        width_deg = float(truth.attrs["radial_width_deg"])
-        az_truth = truth["azimuth"].values
         dual = all(k in truth for k in POLARIMETRIC_FIELDS)
-        mode, beta = self.p["transmission"], float(self.p["transmit_differential_phase_deg"])
+        mode = self.p["transmission"]
         # AHV estimates velocity from the H and V co-polar pulses together (processor).
         need_v = dual and (
             chunk.wants(*POLARIMETRIC_FIELDS) or (mode == "ahv" and chunk.wants("VRADH", "WRADH"))
         )
-        coupled = bool(self.p["cross_polar_coupling"]) and all(
-            k in pattern for k in ("co_polar", "cross_polar")
-        )
-
         gain = 10 ** (pattern.attrs["gain_db"] / 10)
         k0 = (
             self.p["peak_power_w"]
@@ -299,130 +336,109 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
             * 1e-18
             / ((4 * np.pi) ** 3 * lam**4 * 10 ** (self.p["loss_db"] / 10))
         )
-        n_b, n_g = beams.sizes["beam"], rng_m.size
+        return _Run(
+            method=method,
+            dtype=dtype,
+            lam=lam,
+            prt=prt,
+            prt_t1=prt_t1,
+            pulses=pulses,
+            staggered=staggered,
+            rng_m=truth["range"].values,
+            gate_m=float(truth.attrs["gate_width_m"]),
+            width_deg=float(truth.attrs["radial_width_deg"]),
+            az_truth=truth["azimuth"].values,
+            dual=dual,
+            mode=mode,
+            beta=float(self.p["transmit_differential_phase_deg"]),
+            need_v=need_v,
+            coupled=bool(self.p["cross_polar_coupling"])
+            and all(k in pattern for k in ("co_polar", "cross_polar")),
+            k0=k0,
+            volume=is_volume(truth),
+            drawn=0 if method == "expected" else len(receive_channels(mode, need_v)),
+        )
 
-        # What depends only on the truth, the range response and the beam's own scan
-        # modulation is prepared once and reused by every beam and chunk that share them (and,
-        # with threads, by every thread): a pure function of the inputs, memoised.
-        key: tuple[Any, ...] = (id(truth), id(response), k0, prt, lam, pulses, method, dtype)
-        key += (self.p["range_support_db"], self.p["drops_per_cell"])
-        gamma = self.p["drop_sizes"] == "gamma" and method == "monte_carlo"
-        key += (gamma, self.p["temperature_c"])
-        volume = is_volume(truth)
-        broadening = scan_broadening(beams, pattern, lam, self.p["antenna_motion"])
-        # On a moving platform, the motion across the beam widens each beam's spectrum.
-        broadening = platform_broadening(beams, pattern, broadening)
-        path = self._propagated(truth, volume)
+    def _cells(
+        self,
+        run: _Run,
+        truth: xr.Dataset,
+        response: xr.Dataset,
+        path: tuple[xr.Dataset, Any] | None,
+        beam_broadening: float,
+    ) -> tuple[RangeModel, TruthCells]:
+        """The range model and the prepared truth cells for a beam's scan modulation. What
+        depends only on the truth, the range response and the beam's own scan modulation is
+        prepared once and reused by every beam and chunk that share them (and, with threads,
+        by every thread): a pure function of the inputs, memoised."""
+        gamma = self.p["drop_sizes"] == "gamma" and run.method == "monte_carlo"
+        key: tuple[Any, ...] = (id(truth), id(response), run.k0, run.prt, run.lam, run.pulses)
+        key += (run.method,)
+        key += (run.dtype, self.p["range_support_db"], self.p["drops_per_cell"])
+        key += (gamma, self.p["temperature_c"], float(beam_broadening))
+        if self._prepared is None or self._prepared[0] != key:
+            # A volume truth: the cells of every sweep, sweep-major (row s x radials + j).
+            seen = flat_volume(truth) if run.volume else truth
+            if path is not None:
+                seen = path[0]
+            ranges = range_model(
+                response,
+                run.gate_m,
+                run.lam,
+                _largest_speed(seen),
+                floor_db=self.p["range_support_db"],
+            )
+            sizes = (
+                DropSizes.build(self.p["frequency_hz"], self.p["temperature_c"]) if gamma else None
+            )
+            cells = TruthCells(
+                radar_widths(seen, self.widths(), float(beam_broadening)),
+                ranges,
+                run.k0,
+                run.prt,
+                run.lam,
+                run.pulses,
+                run.method,
+                self.p["drops_per_cell"],
+                run.dtype,
+                sizes,
+            )
+            self._prepared = (key, (ranges, cells))
+        return self._prepared[1]
 
-        def prepared(beam_broadening: float) -> tuple[Any, TruthCells]:
-            full = (*key, float(beam_broadening))
-            if self._prepared is None or self._prepared[0] != full:
-                # A volume truth: the cells of every sweep, sweep-major (row s x radials + j).
-                seen = flat_volume(truth) if volume else truth
-                if path is not None:
-                    seen = path[0]
-                ranges = range_model(
-                    response,
-                    gate_m,
-                    lam,
-                    _largest_speed(seen),
-                    floor_db=self.p["range_support_db"],
-                )
-                sizes = (
-                    DropSizes.build(self.p["frequency_hz"], self.p["temperature_c"])
-                    if gamma
-                    else None
-                )
-                cells = TruthCells(
-                    radar_widths(seen, self.p, float(beam_broadening)),
-                    ranges,
-                    k0,
-                    prt,
-                    lam,
-                    pulses,
-                    method,
-                    self.p["drops_per_cell"],
-                    dtype,
-                    sizes,
-                )
-                self._prepared = (full, (ranges, cells))
-            return self._prepared[1]
-
-        ranges, cells = prepared(broadening[0] if broadening.size else 0.0)
-
+    def _echoes(
+        self,
+        run: _Run,
+        inputs: dict[str, Any],
+        chunk: Chunk,
+        broadening: np.ndarray,
+        path: tuple[xr.Dataset, Any] | None,
+    ) -> tuple[np.ndarray, np.ndarray, RangeModel]:
+        """Each beam's expected correlations and, at every level but ``expected``, its drawn
+        echo series: the I/Q (beam x polarisation x gate x pulse, on the drawing grid), the
+        correlations (beam x gate x product) and the range model."""
+        truth, beams = inputs["truth"], inputs["beams"]
+        pattern, response = inputs["pattern"], inputs["range_response"]
+        ranges, cells = self._cells(
+            run, truth, response, path, broadening[0] if broadening.size else 0.0
+        )
         d_az = pattern["azimuth_offset_deg"].values
-        d_el = pattern["elevation_offset_deg"].values
-        support = max(abs(d_az[0]), abs(d_az[-1])) + width_deg / 2
-        cdtype = np.complex64 if dtype == np.float32 else np.complex128
-        check_coverage(az_truth, width_deg, beams["azimuth"].values, support - width_deg / 2)
+        support = max(abs(d_az[0]), abs(d_az[-1])) + run.width_deg / 2
+        check_coverage(
+            run.az_truth, run.width_deg, beams["azimuth"].values, support - run.width_deg / 2
+        )
+        n_b, n_g = beams.sizes["beam"], run.rng_m.size
+        cdtype = np.complex64 if run.dtype == np.float32 else np.complex128
         # Stored polarisation-major, handed on as a (beam, range, pulse, polarization) view:
         # each channel's series stay contiguous for the draws and for the blocks downstream.
-        iq = np.zeros((n_b, 2, n_g, 0 if method == "expected" else pulses), cdtype)
+        iq = np.zeros((n_b, 2, n_g, 0 if run.method == "expected" else run.pulses), cdtype)
         corr = np.zeros((n_b, n_g, len(CORRELATION_PRODUCTS)), np.complex128)
-        drawn = 0 if method == "expected" else len(receive_channels(mode, need_v))
         # Beams of equal scan modulation one after another: their cells are prepared once.
         for i in np.argsort(broadening, kind="stable"):
-            beam = chunk.beams[i]
-            ranges, cells = prepared(broadening[i])
-            az_b = float(beams["azimuth"].values[i])
-            el_b = float(beams["elevation"].values[i])
-            delta = circular_difference(az_truth, np.asarray(az_b), 360.0)
-            near = np.flatnonzero(np.abs(delta) <= support)
-            if volume:
-                # Each sweep weighted by the two-way pattern over the elevations it stands for.
-                seen_by = volume_beam(
-                    pattern["power"].values[i],
-                    d_az,
-                    d_el,
-                    el_b,
-                    near,
-                    delta[near],
-                    width_deg,
-                    elevation_weights(
-                        truth["sweep_elevation"].values,
-                        el_b + d_el,
-                        str(truth.attrs["elevation_interpolation"]),
-                        float(truth.attrs["sweep_beamwidth_deg"]),
-                    ),
-                    az_truth.size,
-                    self.p["elevation_support_db"],
-                )
-                near_az, near, omega = near, seen_by.near, seen_by.omega
-                strongest = omega.max(axis=0, initial=0.0)
-                floor = strongest.max(initial=0.0) * 10 ** (self.p["support_db"] / 10)
-                keep = (strongest >= floor) & (strongest > 0)
-            else:
-                profile = azimuth_profile(pattern["power"].values[i], d_el, el_b)
-                omega = cell_solid_angles(profile, d_az, delta[near], width_deg)
-                keep = omega.max(axis=0) >= omega.max() * 10 ** (self.p["support_db"] / 10)
-            near, omega = near[keep], omega[:, keep]
-            coupling = None
-            if coupled:
-                # The expected correlations need both co-polar channels whatever is drawn.
-                chans = receive_channels(mode, True)[: max(2, drawn)]
-                co, cross = pattern["co_polar"].values[i], pattern["cross_polar"].values[i]
-                if volume:
-                    weights = volume_coupling(
-                        co,
-                        cross,
-                        d_az,
-                        d_el,
-                        el_b,
-                        delta[near_az],
-                        width_deg,
-                        mode,
-                        beta,
-                        chans,
-                        seen_by.sweeps,
-                        keep,
-                    )
-                else:
-                    weights = coupling_weights(
-                        co, cross, d_az, d_el, el_b, delta[near], width_deg, mode, beta, chans
-                    )
-                coupling = Coupling(len(chans), weights)
+            ranges, cells = self._cells(run, truth, response, path, broadening[i])
+            near, omega, coupling = self._weighted_cells(run, truth, beams, pattern, i, support)
             terms = ranges.power.shape[0]
-            alternate = mode == "ahv"
+            alternate = run.mode == "ahv"
             expected = (
                 expected_correlations(cells, near, omega, terms, alternate)
                 if coupling is None
@@ -431,65 +447,148 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
             corr[i] = range_correlate(expected, ranges.power.T, n_g, exact=True)
             if not alternate:
                 corr[i, :, len(SHV_PRODUCTS) :] = np.nan
-            if coupling is None and mode == "shv" and beta:
+            if coupling is None and run.mode == "shv" and run.beta:
                 # The V port's echo carries the transmit differential phase.
-                corr[i] *= _beta_factors(beta)
-            if method == "expected" or near.size == 0:
+                corr[i] *= _beta_factors(run.beta)
+            if run.method == "expected" or near.size == 0:
                 continue
-            gen_h, gen_v = chunk.rng(int(beam)), chunk.rng(int(beam), 1)
+            beam = int(chunk.beams[i])
             draw = BeamDraw(
                 cells,
                 near,
                 omega,
                 ranges,
-                gen_h,
-                gen_v,
-                need_v,
+                chunk.rng(beam),
+                chunk.rng(beam, 1),
+                run.need_v,
                 coupling,
-                drawn,
-                mode,
-                self.p["support_fraction"] if method != "combined" else 0.0,
+                run.drawn,
+                run.mode,
+                self.p["support_fraction"] if run.method != "combined" else 0.0,
             )
-            if coupling is None:
-                if method == "combined":
-                    draw_combined(iq[i], draw)
-                    draw_tones(iq[i], draw)
-                draw_per_cell(iq[i], draw)
-                if mode == "shv" and beta:
-                    iq[i, 1] *= np.exp(1j * np.deg2rad(beta)).astype(cdtype)
-                elif mode == "ahv":
-                    # Without cross-polar fields a port receives nothing of the other
-                    # polarisation's pulses.
-                    iq[i, 0, :, 1::2] = 0
-                    iq[i, 1, :, 0::2] = 0
-            else:
-                if method == "combined":
-                    draw_combined_coupled(iq[i], draw)
-                    draw_tones_coupled(iq[i], draw)
-                draw_per_cell_coupled(iq[i], draw)
+            _draw(iq[i], draw, run, coupling is not None)
+        return iq, corr, ranges
 
-        if staggered is not None:
-            iq = iq[..., staggered[1]]
-        folded = self._fold(iq, corr, beams, rng_m, gate_m, method)
+    def _weighted_cells(
+        self,
+        run: _Run,
+        truth: xr.Dataset,
+        beams: xr.Dataset,
+        pattern: xr.Dataset,
+        i: int,
+        support: float,
+    ) -> tuple[np.ndarray, np.ndarray, Coupling | None]:
+        """Beam ``i``'s truth cells and their weights: the rows of the cells whose radials the
+        pattern grid reaches (``support``) and weighs above ``support_db``, their two-way
+        solid angles (polarisation x cell), and with complex co- and cross-polar fields the
+        two-way coupling of their channels."""
+        d_az = pattern["azimuth_offset_deg"].values
+        d_el = pattern["elevation_offset_deg"].values
+        az_b = float(beams["azimuth"].values[i])
+        el_b = float(beams["elevation"].values[i])
+        delta = circular_difference(run.az_truth, np.asarray(az_b), 360.0)
+        near = np.flatnonzero(np.abs(delta) <= support)
+        if run.volume:
+            # Each sweep weighted by the two-way pattern over the elevations it stands for.
+            seen_by = volume_beam(
+                pattern["power"].values[i],
+                d_az,
+                d_el,
+                el_b,
+                near,
+                delta[near],
+                run.width_deg,
+                elevation_weights(
+                    truth["sweep_elevation"].values,
+                    el_b + d_el,
+                    str(truth.attrs["elevation_interpolation"]),
+                    float(truth.attrs["sweep_beamwidth_deg"]),
+                ),
+                run.az_truth.size,
+                self.p["elevation_support_db"],
+            )
+            near_az, near, omega = near, seen_by.near, seen_by.omega
+            strongest = omega.max(axis=0, initial=0.0)
+            floor = strongest.max(initial=0.0) * 10 ** (self.p["support_db"] / 10)
+            keep = (strongest >= floor) & (strongest > 0)
+        else:
+            profile = azimuth_profile(pattern["power"].values[i], d_el, el_b)
+            omega = cell_solid_angles(profile, d_az, delta[near], run.width_deg)
+            keep = omega.max(axis=0) >= omega.max() * 10 ** (self.p["support_db"] / 10)
+        near, omega = near[keep], omega[:, keep]
+        if not run.coupled:
+            return near, omega, None
+        # The expected correlations need both co-polar channels whatever is drawn.
+        chans = receive_channels(run.mode, True)[: max(2, run.drawn)]
+        co, cross = pattern["co_polar"].values[i], pattern["cross_polar"].values[i]
+        if run.volume:
+            weights = volume_coupling(
+                co,
+                cross,
+                d_az,
+                d_el,
+                el_b,
+                delta[near_az],
+                run.width_deg,
+                run.mode,
+                run.beta,
+                chans,
+                seen_by.sweeps,
+                keep,
+            )
+        else:
+            weights = coupling_weights(
+                co, cross, d_az, d_el, el_b, delta[near], run.width_deg, run.mode, run.beta, chans
+            )
+        return near, omega, Coupling(len(chans), weights)
+
+    def _received(
+        self,
+        run: _Run,
+        iq: np.ndarray,
+        corr: np.ndarray,
+        beams: xr.Dataset,
+        response: xr.Dataset,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """The echoes as the receiver gets them: a staggered scan's pulses taken from the
+        drawing grid, the trips folded (with the other trips' power over the gate's own, dB,
+        or None), the platform's approach, nothing inside the blind range."""
+        if run.staggered is not None:
+            iq = iq[..., run.staggered[1]]
+        folded = self._fold(iq, corr, beams, run.rng_m, run.gate_m, run.method)
         overlay = None
         if folded is not None:
             iq, corr, overlay = folded
         if moving(beams):
             # Every cell approached at the platform's velocity along the beam.
             times = (
-                staggered[1] * staggered[0]
-                if staggered is not None
-                else np.arange(iq.shape[-1]) * prt_t1
+                run.staggered[1] * run.staggered[0]
+                if run.staggered is not None
+                else np.arange(iq.shape[-1]) * run.prt_t1
             )
-            shift_echo(iq, corr, beams, times, prt_t1, lam)
+            shift_echo(iq, corr, beams, times, run.prt_t1, run.lam)
         # The receiver is off while the pulse goes out: nothing is received inside the blind
         # range (the processor masks those gates and the scorer never scores them).
-        blind_m = float(response.attrs["blind_range_m"])
-        blind = rng_m < blind_m
+        blind = run.rng_m < float(response.attrs["blind_range_m"])
         iq[:, :, blind] = 0
         corr[:, blind] = 0
+        return iq, corr, overlay
+
+    def _calibration(
+        self,
+        run: _Run,
+        inputs: dict[str, Any],
+        ranges: RangeModel,
+        path: tuple[xr.Dataset, Any] | None,
+        overlay: np.ndarray | None,
+    ) -> xr.Dataset:
+        """The radar constant per beam and polarisation (power -> dBZ) with what the
+        processors need of the radar, the path's attenuation along each beam's axis and the
+        overlaid trips' power."""
+        truth, beams = inputs["truth"], inputs["beams"]
+        pattern, response = inputs["pattern"], inputs["range_response"]
         omega_cal = pattern["calibration_solid_angle_sr"].values  # beam x polarisation
-        constant_db = 10 * np.log10(k0 * omega_cal * ranges.total_m)
+        constant_db = 10 * np.log10(run.k0 * omega_cal * ranges.total_m)
         calibration = xr.Dataset(
             {
                 "radar_constant_db": (
@@ -499,41 +598,35 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
                 )
             },
             coords={
-                "range": ("range", rng_m, {"units": "meters"}),
+                "range": ("range", run.rng_m, {"units": "meters"}),
                 "polarization": list(POLARIZATIONS),
             },
             attrs={
-                "wavelength_m": lam,
-                "prt_s": prt_t1,
-                "dual_polarization": int(dual),
-                "blind_range_m": blind_m,
+                "wavelength_m": run.lam,
+                "prt_s": run.prt_t1,
+                "dual_polarization": int(run.dual),
+                "blind_range_m": float(response.attrs["blind_range_m"]),
                 "calibration": str(pattern.attrs["calibration"]),
-                "transmission": mode,
-                "transmit_differential_phase_deg": beta,
-                "cross_polar_coupling": int(coupled),
+                "transmission": run.mode,
+                "transmit_differential_phase_deg": run.beta,
+                "cross_polar_coupling": int(run.coupled),
                 **transmit_power(self.p["peak_power_w"], response),
             },
         )
         if path is not None:
             calibration["path_attenuation_db"] = (
                 ("beam", "range", "polarization"),
-                _axis_attenuation(path[1], truth, beams, volume),
+                _axis_attenuation(path[1], truth, beams, run.volume),
                 {"units": "dB", "long_name": "two-way path attenuation along the beam's axis"},
             )
         if overlay is not None:
-            calibration.attrs["unambiguous_range_m"] = SPEED_OF_LIGHT * prt_t1 / 2
+            calibration.attrs["unambiguous_range_m"] = SPEED_OF_LIGHT * run.prt_t1 / 2
             calibration["overlaid_power_ratio_db"] = (
                 ("beam", "range"),
                 overlay,
                 {"units": "dB", "long_name": "power of the other trips over the gate's own"},
             )
-        power = corr[..., :2].real.astype(np.float32)
-        return {
-            "iq": np.moveaxis(iq.astype(np.complex64, copy=False), 1, -1),
-            "signal_power": power,
-            "echo_correlations": corr,
-            "calibration": calibration,
-        }
+        return calibration
 
     def _propagated(self, truth: xr.Dataset, volume: bool) -> tuple[xr.Dataset, Any] | None:
         """The truth cells (a volume's flattened) through the path and the path, when
@@ -645,3 +738,26 @@ def _beta_factors(beta_deg: float) -> np.ndarray:
     t = np.exp(1j * np.deg2rad(beta_deg))
     factors = {"R0_HV": t, "R1_HV": t, "R1_VH": np.conj(t)}
     return np.array([factors.get(k, 1.0) for k in CORRELATION_PRODUCTS])
+
+
+def _draw(iq: np.ndarray, draw: BeamDraw, run: _Run, coupled: bool) -> None:
+    """Add one beam's drawn echo series to ``iq`` (polarisation x gate x pulse): at the
+    combined level the gates' spectral draws and the tones, then the cells drawn one by one."""
+    if coupled:
+        if run.method == "combined":
+            draw_combined_coupled(iq, draw)
+            draw_tones_coupled(iq, draw)
+        draw_per_cell_coupled(iq, draw)
+        return
+    if run.method == "combined":
+        draw_combined(iq, draw)
+        draw_tones(iq, draw)
+    draw_per_cell(iq, draw)
+    if run.mode == "shv" and run.beta:
+        cdtype = np.complex64 if run.dtype == np.float32 else np.complex128
+        iq[1] *= np.exp(1j * np.deg2rad(run.beta)).astype(cdtype)
+    elif run.mode == "ahv":
+        # Without cross-polar fields a port receives nothing of the other polarisation's
+        # pulses.
+        iq[0, :, 1::2] = 0
+        iq[1, :, 0::2] = 0

@@ -36,7 +36,7 @@ channel did before.
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
@@ -57,8 +57,22 @@ TRUTH_BEAMWIDTH_DEG = 0.95
 TRUTH_WIDTH_FLOOR_MS = 0.25
 
 
+@dataclass(frozen=True)
+class WidthModel:
+    """How truth widths become this radar's (:func:`radar_widths`): the model and the radar
+    that measured the truth (see :class:`WidthParams` for each)."""
+
+    model: str = "physical"
+    truth_scan_rate_deg_s: float = TRUTH_SCAN_RATE_DEG_S
+    truth_beamwidth_deg: float = TRUTH_BEAMWIDTH_DEG
+    truth_frequency_hz: float = TRUTH_FREQUENCY_HZ
+    truth_width_floor_ms: float = TRUTH_WIDTH_FLOOR_MS
+
+
 class WidthParams:
     """The weather channel's width parameters, as a mixin: a Block subclass inherits them."""
+
+    p: dict  # the block's parameters (Block)
 
     width_model = Param(
         "physical",
@@ -104,6 +118,16 @@ class WidthParams:
         doc="rotating antenna (scan modulation widens the spectrum) or electronically stepped "
         "beam (none); auto: from the pattern's antenna",
     )
+
+    def widths(self) -> WidthModel:
+        """The block's width parameters, as :func:`radar_widths` takes them."""
+        return WidthModel(
+            str(self.p["width_model"]),
+            float(self.p["truth_scan_rate_deg_s"]),
+            float(self.p["truth_beamwidth_deg"]),
+            float(self.p["truth_frequency_hz"]),
+            float(self.p["truth_width_floor_ms"]),
+        )
 
 
 def measured_by_radar(truth: xr.Dataset) -> bool:
@@ -157,19 +181,19 @@ def scan_broadening(
     return np.round(out, 4)
 
 
-def radar_widths(truth: xr.Dataset, params: dict[str, Any], broadening_ms: float) -> xr.Dataset:
-    """The truth with WRADH as the simulated radar sees it (``width_model`` physical), or the
-    truth itself (``truth``, or no WRADH)."""
-    if params["width_model"] == "truth" or "WRADH" not in truth:
+def radar_widths(truth: xr.Dataset, widths: WidthModel, broadening_ms: float) -> xr.Dataset:
+    """The truth with WRADH as the simulated radar sees it (model ``physical``), or the truth
+    itself (``truth``, or no WRADH)."""
+    if widths.model == "truth" or "WRADH" not in truth:
         return truth
     width = truth["WRADH"].values.astype(np.float64)
     if measured_by_radar(truth):
         width = intrinsic_width(
             width,
-            float(params["truth_scan_rate_deg_s"]),
-            float(params["truth_beamwidth_deg"]),
-            SPEED_OF_LIGHT / float(params["truth_frequency_hz"]),
-            float(params["truth_width_floor_ms"]),
+            widths.truth_scan_rate_deg_s,
+            widths.truth_beamwidth_deg,
+            SPEED_OF_LIGHT / widths.truth_frequency_hz,
+            widths.truth_width_floor_ms,
         )
     if broadening_ms > 0:
         width = np.hypot(width, broadening_ms)

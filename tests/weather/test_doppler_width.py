@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 from pasim_blocks.truth.nexrad import truth_dataset
 from pasim_blocks.weather.channel import WeatherChannel
-from pasim_blocks.weather.width import radar_widths
+from pasim_blocks.weather.width import WidthModel, radar_widths
 
 from pasim_graph import Chunk
 from pasim_graph.executor import LocalExecutor, RunOptions
@@ -51,7 +51,8 @@ def small_truth(instrument: str):
 
 
 def test_radar_truth_loses_its_rotation_broadening():
-    params = {k: p.default for k, p in WeatherChannel.params.items()}
+    params = WeatherChannel(name="weather").widths()  # the block's defaults
+    assert params == WidthModel()
     sigma_nexrad = scan_modulation(11.4, WAVELENGTH_M, 0.95)
     assert abs(sigma_nexrad - 0.170) < 0.001
     got = radar_widths(small_truth("KLBB"), params, 0.0)["WRADH"].values[0]
@@ -64,7 +65,7 @@ def test_radar_truth_loses_its_rotation_broadening():
     # A synthetic scene is intrinsic already; width_model truth keeps every width as given.
     scene = radar_widths(small_truth("synthetic"), params, 0.0)["WRADH"].values[0, :3]
     np.testing.assert_allclose(scene, [0.0, 0.5, 2.0])
-    as_given = radar_widths(small_truth("KLBB"), {**params, "width_model": "truth"}, 0.5)
+    as_given = radar_widths(small_truth("KLBB"), WidthModel("truth"), 0.5)
     np.testing.assert_allclose(as_given["WRADH"].values[0, :3], [0.0, 0.5, 2.0])
 
 
