@@ -10,7 +10,7 @@ from pasim_blocks.algorithms.attenuation import ZPhiAttenuation
 from pasim_blocks.algorithms.dealias import VelocityDealias
 from pasim_blocks.algorithms.despeckle import Despeckle
 from pasim_blocks.algorithms.kdp import KdpEstimate
-from pasim_blocks.algorithms.rain import RainRate
+from pasim_blocks.algorithms.rain_rate import RainRate
 from pasim_blocks.algorithms.sweep_radar import ALGORITHM_FIELDS
 
 from pasim_graph import Chunk

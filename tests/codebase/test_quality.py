@@ -1,5 +1,5 @@
-"""Lint, format and type checks. (The engine's import discipline is checked once, in
-test_imports.py with the other import rules.)"""
+"""Lint, format and type checks. (The import rules are checked in test_imports.py, between
+modules, and test_package_layers.py, between packages.)"""
 
 from __future__ import annotations
 
