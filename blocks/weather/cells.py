@@ -5,6 +5,7 @@ prepared once per truth and range model, and the per-cell series models (Cholesk
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Iterator
 from typing import Any
 
@@ -58,7 +59,8 @@ class CellModel:
         method: str,
         field: dict[str, np.ndarray],
         rho: np.ndarray,
-        echo: np.ndarray,
+        phase_dp: np.ndarray,
+        factors: FactorCache | None,
         prt_s: float,
         wavelength_m: float,
         pulses: int,
@@ -66,7 +68,6 @@ class CellModel:
         dtype: type = np.float32,
         sizes: DropSizes | None = None,
         codes: np.ndarray | None = None,
-        propagation_deg: np.ndarray | None = None,
     ):
         self.method = method
         self.sizes, self.codes = sizes, codes
@@ -75,12 +76,10 @@ class CellModel:
         self.prt_s, self.wavelength_m, self.pulses, self.drops = prt_s, wavelength_m, pulses, drops
         self.dtype = dtype
         self.cdtype = np.complex64 if dtype == np.float32 else np.complex128
-        phidp = field["PHIDP"] if propagation_deg is None else propagation_deg
-        self.phase_dp = np.exp(1j * np.deg2rad(phidp))
-        if method != "monte_carlo":
-            self.factors = FactorCache(
-                np.clip(field["WRADH"], 0, None), echo, prt_s, wavelength_m, pulses, dtype
-            )
+        # exp(j phi_DP) per cell (the propagation part only, with drop sizes).
+        self.phase_dp = phase_dp
+        if factors is not None:
+            self.factors = factors
 
     def draw(
         self,
@@ -258,7 +257,19 @@ class TruthCells:
     reach with the edge gates' moments (the weather is taken to go on), at their own ranges,
     so the first and last gates see neighbours like every other gate; padding at or before
     zero range holds no echo.
+
+    Every quantity of a cell depends on that cell alone, so the cells are prepared a block of
+    radials at a time, when a beam first reaches them (:meth:`prepare`, which the channel
+    calls with each beam's rows before reading them): a worker that runs a few chunks of a
+    long scan prepares the radials near them, not the whole truth (on a cluster of many
+    workers that was most of a worker's first-use time). The same values to the bit either
+    way. The whole truth is prepared at once where a cell's values depend on other cells: the
+    ``combined`` level's table of distinct spectra, and drop sizes (their system offset is a
+    mean over the sweep).
     """
+
+    #: Radials prepared at a time: a chunk of 8 beams reaches a few dozen.
+    BLOCK_ROWS = 16
 
     def __init__(
         self,
@@ -273,65 +284,60 @@ class TruthCells:
         dtype: type,
         sizes: DropSizes | None = None,
     ):
-        pad = ranges.pad
-
-        def padded(a: np.ndarray) -> np.ndarray:
-            return np.pad(a, ((0, 0), (pad, pad)), mode="edge")
-
-        rng_m = truth["range"].values
-        step = float(truth.attrs["gate_width_m"])
-        outside = step * np.arange(1, pad + 1)
-        rng_p = np.concatenate([rng_m[0] - outside[::-1], rng_m, rng_m[-1] + outside])
-        r2 = np.broadcast_to(rng_p**2, (truth.sizes["radial"], rng_p.size))
-        dbz = padded(truth["DBZH"].values)
-        # A gate at zero range (some legacy files start there) holds no echo volume.
-        self.echo = np.isfinite(dbz) & (rng_p > 0)[None, :]
-        self.s_h = np.where(
-            self.echo,
-            k0 * 10 ** (np.nan_to_num(dbz, nan=-999.0) / 10) / np.where(self.echo, r2, 1.0),
-            0.0,
-        )
-        field = {k: padded(filled(truth, k, np.isfinite(truth["DBZH"].values))) for k in FILL}
-        codes = propagation = None
-        if sizes is not None:
-            codes, propagation = fit_drop_sizes(sizes, field, dbz, self.echo, step)
-        self.s_v = self.s_h / 10 ** (np.clip(field["ZDR"], -8, 8) / 10)
-        rho = np.clip(field["RHOHV"], 0.0, 1.0)
-        width = np.clip(field["WRADH"], 0.0, None)
-        a = np.pi * prt_s / wavelength_m
-        # Per-cell expected lag-1 and H-V correlations, before pattern and range weighting;
-        # computed on echo cells only (the others are zero).
-        e = self.echo
-        # r(1), r(2) of every cell, computed once: the cells are shared by every chunk and
-        # thread of a run, so nothing here may be filled lazily.
-        self._lags = np.stack(
-            [
-                np.exp(-8.0 * (a * width) ** 2) * phasor(-4 * a * field["VRADH"]),
-                np.exp(-32.0 * (a * width) ** 2) * phasor(-8 * a * field["VRADH"]),
-            ]
-        )
-        lag1 = np.exp(-8.0 * (a * width[e]) ** 2) * phasor(-4 * a * field["VRADH"][e])
-        self.r1_h = np.zeros(e.shape, np.complex128)
-        self.r1_v = np.zeros(e.shape, np.complex128)
-        self.cross = np.zeros(e.shape, np.complex128)
-        self.r1_h[e] = self.s_h[e] * lag1
-        self.r1_v[e] = self.s_v[e] * lag1
-        self.cross[e] = (
-            np.sqrt(self.s_h[e] * self.s_v[e]) * rho[e] * phasor(np.deg2rad(field["PHIDP"][e]))
-        )
-        self.u = ranges.normalised_velocity(field["VRADH"])
+        self._truth, self._ranges, self._k0 = truth, ranges, k0
+        self._a = np.pi * prt_s / wavelength_m
         self.pulses = pulses
         self.dtype = dtype
+        rng_m = truth["range"].values
+        step = float(truth.attrs["gate_width_m"])
+        outside = step * np.arange(1, ranges.pad + 1)
+        rng_p = np.concatenate([rng_m[0] - outside[::-1], rng_m, rng_m[-1] + outside])
+        self._r2 = rng_p**2
+        dbz = self._padded(truth["DBZH"].values)
+        self._dbz = dbz
+        # A gate at zero range (some legacy files start there) holds no echo volume.
+        self.echo = np.isfinite(dbz) & (rng_p > 0)[None, :]
+        shape = dbz.shape
         # The per-cell draws of every level but `expected`: all echo cells for covariance and
         # monte_carlo, the cells too narrow for the spectral draw for combined.
         self.per_cell = self.echo.copy() if method in ("covariance", "monte_carlo") else None
+        self.factors = None
+        if method in ("covariance", "combined"):
+            # The distinct widths over the whole truth: each cell's code is its width's index.
+            width = np.clip(self._field("WRADH", slice(None)), 0.0, None)
+            self.factors = FactorCache(
+                np.unique(width[self.echo]), shape, prt_s, wavelength_m, pulses, dtype
+            )
+        self._done = np.zeros(-(-shape[0] // self.BLOCK_ROWS), bool)
+        self._lock = threading.Lock()
+        codes = None
+        if sizes is None and method != "combined":
+            # Zero until their radials are prepared; pages never touched cost nothing.
+            self.s_h: np.ndarray = np.zeros(shape)
+            self.s_v: np.ndarray = np.zeros(shape)
+            self.u: np.ndarray = np.zeros(shape)
+            self.rho: np.ndarray = np.zeros(shape)
+            self.r1_h: np.ndarray = np.zeros(shape, np.complex128)
+            self.r1_v: np.ndarray = np.zeros(shape, np.complex128)
+            self.cross: np.ndarray = np.zeros(shape, np.complex128)
+            self.phase_dp: np.ndarray = np.zeros(shape, np.complex128)
+            self._lags: np.ndarray = np.zeros((2, *shape), np.complex128)
+            self.field: dict[str, np.ndarray] = {k: np.zeros(shape) for k in FILL}
+        else:
+            self.field = {k: self._field(k, slice(None)) for k in FILL}
+            propagation = None
+            if sizes is not None:
+                codes, propagation = fit_drop_sizes(sizes, self.field, dbz, self.echo, step)
+            self._adopt(self._cells(slice(None), self.field, propagation))
+            self._done[:] = True
         self.model = None
         if method in ("covariance", "monte_carlo", "combined"):
             self.model = CellModel(
                 "monte_carlo" if method == "monte_carlo" else "covariance",
-                field,
-                rho,
-                self.echo,
+                self.field,
+                self.rho,
+                self.phase_dp,
+                self.factors,
                 prt_s,
                 wavelength_m,
                 pulses,
@@ -339,10 +345,105 @@ class TruthCells:
                 dtype,
                 sizes,
                 codes,
-                propagation,
             )
         if method == "combined":
-            self._spectra(field["VRADH"], width, prt_s, wavelength_m)
+            width = np.clip(self.field["WRADH"], 0.0, None)
+            self._spectra(self.field["VRADH"], width, prt_s, wavelength_m)
+
+    def prepare(self, rows: np.ndarray) -> None:
+        """Prepare the cells of radials ``rows`` (and their blocks) if not done yet; safe
+        from several threads (the threaded scheduler shares one channel's cells)."""
+        blocks = np.unique(np.asarray(rows) // self.BLOCK_ROWS)
+        todo = blocks[~self._done[blocks]]
+        if not todo.size:
+            return
+        with self._lock:
+            for b in todo:
+                if self._done[b]:
+                    continue
+                sl = slice(int(b) * self.BLOCK_ROWS, (int(b) + 1) * self.BLOCK_ROWS)
+                field = {k: self._field(k, sl) for k in FILL}
+                for name, value in self._cells(sl, field, None).items():
+                    if name == "field":
+                        for k, v in value.items():
+                            self.field[k][sl] = v
+                    elif name == "lags":
+                        self._lags[:, sl] = value
+                    elif name == "codes":
+                        self.factors.code[sl] = value  # type: ignore[union-attr]
+                    else:
+                        getattr(self, name)[sl] = value
+                self._done[b] = True
+
+    def _padded(self, a: np.ndarray) -> np.ndarray:
+        pad = self._ranges.pad
+        return np.pad(a, ((0, 0), (pad, pad)), mode="edge")
+
+    def _field(self, name: str, rows: slice) -> np.ndarray:
+        """Moment ``name`` of radials ``rows``, filled where missing and padded in range."""
+        truth = self._truth
+        if name not in truth:
+            return self._padded(np.full(truth["DBZH"].values[rows].shape, FILL[name]))
+        values = truth[name].values[rows].astype(np.float64)
+        return self._padded(np.where(np.isfinite(values), values, FILL[name]))
+
+    def _cells(
+        self, rows: slice, field: dict[str, np.ndarray], propagation: np.ndarray | None
+    ) -> dict[str, Any]:
+        """Every per-cell quantity of radials ``rows`` from their (padded) moments."""
+        e = self.echo[rows]
+        dbz = self._dbz[rows]
+        r2 = np.broadcast_to(self._r2, dbz.shape)
+        k0, a = self._k0, self._a
+        s_h = np.where(
+            e, k0 * 10 ** (np.nan_to_num(dbz, nan=-999.0) / 10) / np.where(e, r2, 1.0), 0.0
+        )
+        s_v = s_h / 10 ** (np.clip(field["ZDR"], -8, 8) / 10)
+        rho = np.clip(field["RHOHV"], 0.0, 1.0)
+        width = np.clip(field["WRADH"], 0.0, None)
+        # r(1), r(2) of every cell; the expected correlations' lag-1 and H-V terms, before
+        # pattern and range weighting, on echo cells only (the others are zero).
+        lags = np.stack(
+            [
+                np.exp(-8.0 * (a * width) ** 2) * phasor(-4 * a * field["VRADH"]),
+                np.exp(-32.0 * (a * width) ** 2) * phasor(-8 * a * field["VRADH"]),
+            ]
+        )
+        lag1 = np.exp(-8.0 * (a * width[e]) ** 2) * phasor(-4 * a * field["VRADH"][e])
+        r1_h = np.zeros(e.shape, np.complex128)
+        r1_v = np.zeros(e.shape, np.complex128)
+        cross = np.zeros(e.shape, np.complex128)
+        r1_h[e] = s_h[e] * lag1
+        r1_v[e] = s_v[e] * lag1
+        cross[e] = np.sqrt(s_h[e] * s_v[e]) * rho[e] * phasor(np.deg2rad(field["PHIDP"][e]))
+        out: dict[str, Any] = {
+            "s_h": s_h,
+            "s_v": s_v,
+            "rho": rho,
+            "lags": lags,
+            "r1_h": r1_h,
+            "r1_v": r1_v,
+            "cross": cross,
+            "u": self._ranges.normalised_velocity(field["VRADH"]),
+            "phase_dp": np.exp(
+                1j * np.deg2rad(field["PHIDP"] if propagation is None else propagation)
+            ),
+            "field": field,
+        }
+        if self.factors is not None:
+            codes = np.full(e.shape, -1, np.int64)
+            codes[e] = np.searchsorted(self.factors.widths, width[e])
+            out["codes"] = codes
+        return out
+
+    def _adopt(self, cells: dict[str, Any]) -> None:
+        """The whole truth's cells as this object's arrays."""
+        self.s_h, self.s_v, self.rho = cells["s_h"], cells["s_v"], cells["rho"]
+        self._lags = cells["lags"]
+        self.r1_h, self.r1_v, self.cross = cells["r1_h"], cells["r1_v"], cells["cross"]
+        self.u, self.phase_dp, self.field = cells["u"], cells["phase_dp"], cells["field"]
+        if self.factors is not None:
+            self.factors.code = cells["codes"]
 
     def lags(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Normalised lag-1 and lag-2 correlations r(1), r(2) of the cells of radials ``rows``."""
@@ -399,13 +500,6 @@ class TruthCells:
         self.tones = np.exp(
             -4j * np.pi * prt_s / wavelength_m * self.tone_velocities[:, None] * m
         ).astype(np.complex64 if self.dtype == np.float32 else np.complex128)
-
-
-def filled(truth: xr.Dataset, name: str, echo: np.ndarray) -> np.ndarray:
-    if name not in truth:
-        return np.full(echo.shape, FILL[name])
-    values = truth[name].values.astype(np.float64)
-    return np.where(np.isfinite(values), values, FILL[name])
 
 
 def flat_volume(truth: xr.Dataset) -> xr.Dataset:

@@ -437,6 +437,7 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
         for i in np.argsort(broadening, kind="stable"):
             ranges, cells = self._cells(run, truth, response, path, broadening[i])
             near, omega, coupling = self._weighted_cells(run, truth, beams, pattern, i, support)
+            cells.prepare(near)
             terms = ranges.power.shape[0]
             alternate = run.mode == "ahv"
             expected = (

@@ -50,16 +50,18 @@ class FactorCache:
 
     def __init__(
         self,
-        width_ms: np.ndarray,
-        echo: np.ndarray,
+        widths_ms: np.ndarray,
+        shape: tuple[int, ...],
         prt_s: float,
         wavelength_m: float,
         pulses: int,
         dtype: type = np.float32,
     ):
-        self.widths, codes = np.unique(width_ms[echo], return_inverse=True)
-        self.code = np.full(echo.shape, -1, np.int64)
-        self.code[echo] = codes.ravel()
+        #: The distinct widths, ascending; ``code`` is each cell's index into them (-1 for a
+        #: cell without echo), filled by the owner (:class:`~pasim_blocks.weather.cells.
+        #: TruthCells`) as it prepares its cells.
+        self.widths = widths_ms
+        self.code = np.full(shape, -1, np.int64)
         self.args = (prt_s, wavelength_m, pulses)
         self.dtype = dtype
         self.factors: dict[int, np.ndarray] = {}
