@@ -35,7 +35,7 @@ def main() -> None:
     import matplotlib.pyplot as plt
     import pyart
     import xarray as xr
-    from pasim_blocks.products.export import FORMATS, MOMENTS, odim_bound
+    from pasim_blocks.products.exchange_files import FORMATS, MOMENTS, odim_bound
 
     from pasim_graph.cli import main as pasim
 

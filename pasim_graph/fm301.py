@@ -87,6 +87,12 @@ TIME_ATTRS = {"standard_name": "time"}
 SWEEP_GROUP_NAME_ATTRS = {"long_name": "name of the group holding each sweep"}
 
 
+def rhi_mode(mode: str) -> bool:
+    """A sweep mode read from a radar file names an RHI: FM-301's ``rhi`` or ``manual_rhi``,
+    in any case (the scans here write :data:`SWEEP_MODE_RHI`)."""
+    return SWEEP_MODE_RHI in mode.lower()
+
+
 def sweep_group(index: int) -> str:
     """The FM-301 group of the sweep at ``index``."""
     return f"sweep_{index}"

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from .fm301 import BEAM_DIMENSIONS
 from .ports import BEAM_DIM
 from .sweep_level import run_stage, stored_inputs
 
@@ -65,7 +66,7 @@ def write_stage(path: str, group: str, outputs: list[xr.Dataset], chunk_beams: i
 
     node = zarr.open_group(str(path), path=group, mode="r+", use_consolidated=False)
     node.attrs.pop(STAGE_DONE, None)
-    stored_dim = next(d for d in ("azimuth", "elevation", "time") if d in _dims(node))
+    stored_dim = next(d for d in BEAM_DIMENSIONS if d in _dims(node))
     merged = xr.merge(outputs, compat="override", join="override", combine_attrs="override")
     merged = merged.drop_vars(list(merged.coords)).rename_dims({BEAM_DIM: stored_dim})
     names = [str(n) for n in merged.data_vars]

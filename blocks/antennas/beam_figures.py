@@ -3,13 +3,15 @@ study's antenna figures).
 
 Azimuth and elevation cuts through the beam (one-way, H and V, co- and cross-polar), the
 3-dB beamwidths, first and peak sidelobes, peak gain, the peak cross-polar level in the main
-beam and the two-way H/V ratio at the peak (the ZDR bias the pattern causes). Only the
-methods of :class:`~.antenna.Antenna` are called, so any antenna deriving from it is
-measured alike.
+beam and the two-way H/V ratio at the peak (the ZDR bias the pattern causes), of one beam
+(:func:`measure`, :func:`measure_as_built`) or of a list of beam directions such as a scan's
+(:func:`measure_beams`). Only the methods of :class:`~.antenna.Antenna` are called, so any
+antenna deriving from it is measured alike.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
@@ -133,6 +135,28 @@ def measure_as_built(
         )
     )
     return built, ideal
+
+
+def measure_beams(
+    block: Antenna,
+    beams: Iterable[tuple[float, float]],
+    *,
+    seed: int = 0,
+    span_deg: float = 90.0,
+) -> list[dict[str, Any]]:
+    """:func:`measure` of ``block``'s beam steered to each absolute (azimuth, elevation) of
+    ``beams`` (degrees, in the radar's frame, as a scan lists them), its resource loaded
+    once: per beam, the figures (without the cuts) with ``azimuth_deg`` and ``elevation_deg``
+    the beam's direction and ``steer_deg`` the offsets from broadside it was steered by."""
+    resource = block.load()
+    block.prepare(resource)
+    rows = []
+    for az, el in beams:
+        steer = steer_from_broadside(block, az, el)
+        figures = measure(block, *steer, seed=seed, resource=resource, span_deg=span_deg)
+        del figures["cuts"]
+        rows.append({"azimuth_deg": az, "elevation_deg": el, "steer_deg": list(steer), **figures})
+    return rows
 
 
 def steer_from_broadside(block: Antenna, az_deg: float, el_deg: float) -> tuple[float, float]:

@@ -1,6 +1,6 @@
 """``pasim export STORE --format cfradial1|cfradial2|odim [--out FILE]``: a finished run as a
 file other radar tools read (Py-ART, xradar, wradlib, ...), the truth carried beside the
-moments; what goes in and how is :mod:`pasim_blocks.products.export`."""
+moments; what goes in and how is :mod:`pasim_blocks.products.exchange_files`."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ class ExportCommand:
     help = "write a run as CF/Radial 1, CF/Radial 2 or ODIM_H5, the truth beside the moments"
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
-        from ..products.export import FORMATS
+        from ..products.exchange_files import FORMATS
 
         parser.add_argument("store", help="a finished store of `pasim run`")
         parser.add_argument(
@@ -33,7 +33,7 @@ class ExportCommand:
     def run(self, args: argparse.Namespace) -> int:
         from pasim_graph.command_api import UserError
 
-        from ..products.export import ExportError, export_store
+        from ..products.exchange_files import ExportError, export_store
 
         try:
             done = export_store(args.store, args.format, args.out)

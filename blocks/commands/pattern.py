@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import io
-import json
 import math
 from typing import Any
 
@@ -22,13 +21,8 @@ from pasim_graph.command_api import UserError, add_graph_arguments, load_graph, 
 from pasim_graph.outputs import write_atomic
 from pasim_graph.serialize import json_safe
 
-from ..antennas.beam_figures import (
-    antenna_blocks,
-    build,
-    measure,
-    measure_as_built,
-    steer_from_broadside,
-)
+from ..antennas.beam_figures import antenna_blocks, build, measure_as_built, measure_beams
+from ..scans.scan import scan_beams
 from .reporting import report
 
 
@@ -107,7 +101,7 @@ class PatternCommand:
         if args.scan:
             if args.plot or args.steer != (0.0, 0.0):
                 raise UserError("--scan measures every beam of the scan: drop --steer and --plot")
-            return scan_table(graph, name, args)
+            return scan_report(graph, name, args)
         type_name = graph.classes[name].type_name
         calibration = (
             graph.value(name, "calibration")
@@ -265,49 +259,37 @@ SCAN_COLUMNS = (
 )
 
 
-def scan_beams(graph: Any) -> list[tuple[float, float]]:
-    """(azimuth, elevation) of every beam of every sweep of the graph's scan block (a PPI's
-    nominal azimuths, a volume's cuts, an RHI's elevations, a schedule's beams), in scan order.
-    """
-    from pasim_graph import Chunk
-
+def scan_report(graph: Any, name: str, args: argparse.Namespace) -> int:
+    """``pasim pattern --scan``: the figures of every beam of the graph's one scan
+    (:func:`~pasim_blocks.scans.scan.scan_beams`), each measured as ``--steer`` would
+    (:func:`~pasim_blocks.antennas.beam_figures.measure_beams`)."""
     scans = graph.by_role("scan")
     if len(scans) != 1:
         raise UserError(f"--scan needs one scan block; the graph has {len(scans) or 'none'}")
-    name = scans[0]
-    cls = graph.classes[name]
-    out: list[tuple[float, float]] = []
-    for overrides in cls.scan_sweeps(dict(graph.params[name])):
-        scan = cls(name=name, **{**graph.params[name], **overrides})
-        n = scan.beam_count()
-        beams = scan.process({}, Chunk(beams=np.arange(n), block_name=name))["beams"]
-        az, el = beams["azimuth"].values, beams["elevation"].values
-        out += [(float(a), float(e)) for a, e in zip(az, el, strict=True)]
-    return out
+
+    def figures(rows: list[dict[str, Any]]) -> dict[str, Any]:
+        keep = ("azimuth_deg", "elevation_deg", "steer_deg", *(k for k, _, _ in SCAN_COLUMNS))
+        # NaN figures (no first sidelobe in a short span) are None: "n/a" in the table.
+        beams = [json_safe({k: r[k] for k in keep}) for r in rows]
+        return {"antenna": name, "seed": args.seed, "beams": beams}
+
+    return report(
+        args,
+        lambda: measure_beams(
+            build(graph, name), scan_beams(graph, scans[0]), seed=args.seed, span_deg=args.span
+        ),
+        figures,
+        text=lambda f: scan_text(f["beams"]),
+        where=f"block {name!r} ({graph.classes[name].type_name})",
+    )
 
 
-def scan_table(graph: Any, name: str, args: argparse.Namespace) -> int:
-    """``pasim pattern --scan``: the figures of every beam of the scan."""
-    try:
-        block = build(graph, name)
-        resource = block.load()
-        block.prepare(resource)
-        rows = []
-        for az, el in scan_beams(graph):
-            steer = steer_from_broadside(block, az, el)
-            figures = measure(block, *steer, seed=args.seed, resource=resource, span_deg=args.span)
-            row = {"azimuth_deg": az, "elevation_deg": el, "steer_deg": list(steer)}
-            row.update({k: json_safe(figures[k]) for k, _, _ in SCAN_COLUMNS})
-            rows.append(row)
-    except ValueError as exc:
-        raise UserError(f"block {name!r} ({graph.classes[name].type_name}): {exc}") from None
-    if args.json:
-        print(json.dumps({"antenna": name, "seed": args.seed, "beams": rows}, indent=2))
-        return 0
+def scan_text(rows: list[dict[str, Any]]) -> str:
+    """The beams of ``pasim pattern --scan`` as a table, one line per beam."""
     head = ["az deg", "el deg", *(title for _, title, _ in SCAN_COLUMNS)]
-    print("  ".join(f"{h:>9}" for h in head))
+    lines = ["  ".join(f"{h:>9}" for h in head)]
     for r in rows:
         cells = [f"{r['azimuth_deg']:.2f}", f"{r['elevation_deg']:.2f}"]
         cells += ["n/a" if r[k] is None else fmt.format(r[k]) for k, _, fmt in SCAN_COLUMNS]
-        print("  ".join(f"{c:>9}" for c in cells))
-    return 0
+        lines.append("  ".join(f"{c:>9}" for c in cells))
+    return "\n".join(lines)

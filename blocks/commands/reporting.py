@@ -38,14 +38,17 @@ def report(
     analyse: Callable[[], R],
     figures: Callable[[R], dict[str, Any]],
     *,
-    plot: Callable[[R, str], None],
     where: str,
+    plot: Callable[[R, str], None] | None = None,
     errors: tuple[type[Exception], ...] = (ValueError,),
     text: Callable[[dict[str, Any]], str] = metrics_text,
 ) -> int:
     """Run ``analyse``; with ``args.plot`` draw its result there; print ``figures`` of it as
     JSON (``args.json``) or ``text``. An error of ``errors`` is the user's, said after
-    ``where`` (the graph or block); a plot that cannot be written names ``--plot``."""
+    ``where`` (the graph or block); a plot that cannot be written names ``--plot``.
+    ``plot`` None: the command draws nothing here (it refused a ``--plot`` before calling)."""
+    if plot is None and args.plot:
+        raise UserError(f"--plot {args.plot}: this command draws no plot here")
     if args.plot and not Path(args.plot).resolve().parent.is_dir():
         # Checked before the analysis, worded as every other output in a missing folder.
         folder = Path(args.plot).parent
@@ -54,7 +57,7 @@ def report(
         result = analyse()
     except errors as exc:
         raise UserError(f"{where}: {exc}") from None
-    if args.plot:
+    if plot is not None and args.plot:
         try:
             plot(result, args.plot)
         except (OSError, ValueError) as exc:

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from pasim_graph.fm301 import BEAM_DIMENSIONS, SWEEP_MODE_RHI
 from pasim_graph.fm301 import MOMENT_FIELDS as MOMENTS
 from pasim_graph.outputs import write_atomic
 from pasim_graph.store import NotAStoreError, open_sweep
@@ -95,7 +96,7 @@ def ppi_mesh(sweep: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
     Ground distance is ``range * cos(elevation)``: at the low elevations of a PPI this differs
     from a 4/3-earth beam path by well under a gate at the ranges of a Level-II sweep.
     """
-    beam_dim = next(d for d in ("azimuth", "elevation", "time") if d in sweep.dims)
+    beam_dim = next(d for d in BEAM_DIMENSIONS if d in sweep.dims)
     az = np.unwrap(np.deg2rad(np.asarray(sweep["azimuth"].values, dtype=np.float64)))
     rng = np.asarray(sweep["range"].values, dtype=np.float64) / 1000.0
     elev = float(np.nanmean(sweep["elevation"].values)) if "elevation" in sweep else 0.0
@@ -107,7 +108,7 @@ def ppi_mesh(sweep: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
 
 def is_rhi(sweep: xr.Dataset) -> bool:
     """The sweep is an RHI (FM-301 ``sweep_mode``), drawn as range against height."""
-    return "sweep_mode" in sweep and str(sweep["sweep_mode"].values) == "rhi"
+    return "sweep_mode" in sweep and str(sweep["sweep_mode"].values) == SWEEP_MODE_RHI
 
 
 def rhi_mesh(sweep: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:

@@ -27,11 +27,12 @@ import numpy as np
 import xarray as xr
 
 from pasim_graph import Param
+from pasim_graph.fm301 import PLATFORM_FIXED
 
 #: Presets: CfRadial platform type and speed along the heading (m/s) when no velocity is given.
 PRESETS = {
-    "none": ("fixed", 0.0),
-    "ground": ("fixed", 0.0),
+    "none": (PLATFORM_FIXED, 0.0),
+    "ground": (PLATFORM_FIXED, 0.0),
     "ship": ("ship", 8.0),
     "airborne": ("aircraft", 150.0),
 }

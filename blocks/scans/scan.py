@@ -1,12 +1,15 @@
 """The scans' bases: what every scan declares (its role, the optional truth, the beams it
 emits), and what the scans that dwell the same on every beam share (pulses, PRT, alignment to
-the truth, a start after the truth's)."""
+the truth, a start after the truth's), and the list of a scan's beams outside a run
+(:func:`scan_beams`, for ``pasim pattern --scan``)."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from pasim_graph import Block, Input, Output, Param
+import numpy as np
+
+from pasim_graph import Block, Chunk, Input, Output, Param
 from pasim_graph.fm301 import cf_attributes
 
 from ..signals import BEAMS, TRUTH
@@ -53,3 +56,19 @@ class DwellScan(Scan):
         max=1e6,
         doc="start of the sweep after the truth's start (a volume sets it for each sweep)",
     )
+
+
+def scan_beams(graph: Any, name: str) -> list[tuple[float, float]]:
+    """(azimuth, elevation) in degrees of every beam of every sweep of the scan block ``name``
+    of ``graph`` (a PPI's nominal azimuths, a volume's cuts, an RHI's elevations, a schedule's
+    beams), in scan order: each sweep's beams as the block emits them, with no truth to align
+    them to."""
+    cls = graph.classes[name]
+    out: list[tuple[float, float]] = []
+    for overrides in cls.scan_sweeps(dict(graph.params[name])):
+        scan = cls(name=name, **{**graph.params[name], **overrides})
+        n = scan.beam_count()
+        beams = scan.process({}, Chunk(beams=np.arange(n), block_name=name))["beams"]
+        az, el = beams["azimuth"].values, beams["elevation"].values
+        out += [(float(a), float(e)) for a, e in zip(az, el, strict=True)]
+    return out

@@ -229,19 +229,13 @@ def unscored(study: Study, runs: list[Run], out: Path, scores: dict[str, Any]) -
 
 def measure_beamwidth(run: Run, estimate: Run, sector: tuple[float, float], el: float) -> float:
     """The one-way 3-dB beamwidth (geometric mean of azimuth and elevation) of the system's
-    antenna, its beam steered to the sector's middle."""
-    from ..antennas.beam_figures import build, measure
+    antenna, its beam steered to the sector's middle. The antenna is measured through the
+    :class:`~pasim_blocks.antennas.antenna.Antenna` contract (``build`` refuses another block)."""
+    from ..antennas.beam_figures import build, measure_beams
     from .hardware import sector_middle
 
-    graph = estimate.graph()
-    block = build(graph, run.source_antenna)
-    resource = block.load()
-    if hasattr(block, "prepare"):
-        block.prepare(resource)
-    middle = sector_middle(sector)
-    az0, el0 = block.broadside()
-    steer = ((middle - az0 + 180.0) % 360.0 - 180.0, el - el0)
-    figures = measure(block, *steer, seed=run.seed, resource=resource, span_deg=20.0)
+    block = build(estimate.graph(), run.source_antenna)
+    (figures,) = measure_beams(block, [(sector_middle(sector), el)], seed=run.seed, span_deg=20.0)
     return float(math.sqrt(figures["beamwidth_az_deg"] * figures["beamwidth_el_deg"]))
 
 

@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from pasim_graph.fm301 import rhi_mode
+
 from . import sizes
 from .field_names import ALIASES, field_map, mapping_hint, unknown_names
 from .gridding import (
@@ -256,7 +258,7 @@ def sweeps_from_tree(
 ) -> list[TruthSweep]:
     """:func:`read_radar_sweeps` on a file already opened (:func:`open_radar_file`)."""
     described = sweep_modes(tree, f"{path} ({kind})")
-    ppi = [d for d in described if "rhi" not in d[2].lower()]
+    ppi = [d for d in described if not rhi_mode(d[2])]
     if not ppi:
         raise ValueError(
             f"{path} ({kind}) holds only RHI sweeps (azimuths "

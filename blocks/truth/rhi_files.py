@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from pasim_graph.fm301 import rhi_mode
+
 from .gridding import clean_fields, gate_width, wrap360
 from .nexrad_io import TruthSweep
 from .radar_files import (
@@ -34,7 +36,7 @@ def only_rhis(tree: Any, where: str = "radar file") -> bool:
     """True when every sweep of the opened radar file (``where``, named in a refusal) is an
     RHI."""
     modes = sweep_modes(tree, where)
-    return bool(modes) and all("rhi" in m.lower() for _, _, m in modes)
+    return bool(modes) and all(rhi_mode(m) for _, _, m in modes)
 
 
 def rhi_sweeps(

@@ -428,7 +428,9 @@ def run_choices(doc: Any) -> dict[str, Any]:
     """The fidelity levels a run of this graph can pick, and the scan sector it has.
 
     Levels are the rungs of the one block that declares a ``fidelity_ladder`` (as ``pasim
-    tradeoff`` uses them), or else the ``choices`` of the one block's ``method`` parameter.
+    tradeoff`` uses them), or else the ``choices`` of the parameter that the one block
+    declaring a fidelity level names (``Block.fidelity_param``, read from the class the
+    registry gives, whatever the parameter is called).
     """
     try:
         spec = spec_from_doc(doc)
@@ -439,7 +441,7 @@ def run_choices(doc: Any) -> dict[str, Any]:
     levels: list[dict[str, Any]] = []
     current = ""
     owners = [n for n, c in known.items() if c.fidelity_ladder]
-    methods = [n for n, c in known.items() if "method" in c.params and c.params["method"].choices]
+    leveled = [n for n, c in known.items() if _fidelity_choices(c)]
     if len(owners) == 1:
         name = owners[0]
         cls = known[name]
@@ -463,14 +465,15 @@ def run_choices(doc: Any) -> dict[str, Any]:
             ):
                 current = level["label"]
                 break
-    elif len(methods) == 1:
-        name = methods[0]
-        for choice in known[name].params["method"].choices or ():
+    elif len(leveled) == 1:
+        name = leveled[0]
+        param, choices = known[name].fidelity_param, _fidelity_choices(known[name])
+        for choice in choices:
             levels.append(
-                {"label": str(choice), "block": name, "set": {"method": format_value(choice)}}
+                {"label": str(choice), "block": name, "set": {param: format_value(choice)}}
             )
-        own = spec.blocks[name].params.get("method", known[name].params["method"].default)
-        current = str(own) if own in (known[name].params["method"].choices or ()) else ""
+        own = spec.blocks[name].params.get(param, known[name].params[param].default)
+        current = str(own) if own in choices else ""
     sector = None
     scans = [n for n, c in known.items() if c.role == "scan"]
     if len(scans) == 1:
@@ -486,6 +489,14 @@ def run_choices(doc: Any) -> dict[str, Any]:
         if len(vals) == 2 and all(isinstance(v, (int, float)) for v in vals):
             sector = f"{vals[0]:g}:{vals[1]:g}"
     return {"levels": levels, "sector": sector, "current": current}
+
+
+def _fidelity_choices(cls: Any) -> tuple[Any, ...]:
+    """The levels of the parameter a block class declares as its fidelity level
+    (``fidelity_param``); empty when it declares none, or one that is not a parameter with
+    choices."""
+    param = cls.params.get(cls.fidelity_param) if cls.fidelity_param else None
+    return tuple(param.choices or ()) if param is not None else ()
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""Tests of ``pasim pattern`` (``blocks/pattern_command.py``) on the paper's systems.
+"""Tests of ``pasim pattern`` (``blocks/commands/pattern.py``) on the paper's systems.
 
 What each test compares against:
 
@@ -175,3 +175,33 @@ def test_scan_mode_gives_each_beam_as_steering_it_by_hand(capsys) -> None:
     # Steered away from broadside the beam widens and the H/V ratio grows (the ATD faces 290).
     assert beams[0]["beamwidth_az_deg"] > beams[-1]["beamwidth_az_deg"]
     assert beams[0]["zdr_bias_db"] < beams[-1]["zdr_bias_db"] < 0
+
+
+def test_scan_mode_prints_one_table_row_per_beam(capsys) -> None:
+    """Without --json, `--scan` prints a header and one row per beam through the commands'
+    shared `report`; a figure the span cannot hold (no sidelobe within 2 deg) reads n/a."""
+    from pasim_blocks.commands.pattern import SCAN_COLUMNS, scan_text
+
+    from ..conftest import pasim_out
+
+    graph = str(GRAPHS / "atd_radar.yaml")
+    args = ("pattern", graph, "--scan", "--sector", "240:242", "--span", "2")
+    code, out, err = pasim_out(capsys, *args)
+    assert code == 0, err
+    head, *rows = out.splitlines()
+    assert head.split() == "az deg el deg bw az bw el 1st SL peak SL gain dBi H/V dB".split()
+    assert [r.split()[0] for r in rows] == ["240.50", "241.50"]
+    assert all(r.split()[4] == "n/a" for r in rows)
+    code, as_json, err = pasim_out(capsys, *args, "--json")
+    assert code == 0, err
+    assert scan_text(json.loads(as_json)["beams"]) + "\n" == out
+    assert len(SCAN_COLUMNS) == len(rows[0].split()) - 2
+
+
+def test_scan_mode_refuses_a_plot_and_a_steer(capsys) -> None:
+    from ..conftest import pasim_out
+
+    graph = str(GRAPHS / "atd_radar.yaml")
+    for extra in (("--plot", "x.png"), ("--steer", "10,0")):
+        code, out, err = pasim_out(capsys, "pattern", graph, "--scan", *extra)
+        assert code == 2 and out == "" and "drop --steer and --plot" in err

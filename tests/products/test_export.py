@@ -78,7 +78,7 @@ def _store_sweeps(volume) -> list[xr.Dataset]:
 
 
 def _bound(fmt: str, name: str) -> float:
-    from pasim_blocks.products.export import odim_bound
+    from pasim_blocks.products.exchange_files import odim_bound
 
     return odim_bound(name) if fmt == "odim" else 0.0
 
@@ -192,7 +192,7 @@ def test_odim_holds_16_bit_integers_with_the_stated_gain(exported):
     """What the ODIM bound rests on, read with h5py: every field a uint16 array whose
     what/gain and what/offset are the coding the exporter states, nodata 65535."""
     import h5py
-    from pasim_blocks.products.export import ODIM_CODING
+    from pasim_blocks.products.exchange_files import ODIM_CODING
 
     with h5py.File(exported["odim"]) as f:
         assert f["what"].attrs["object"] == b"PVOL"
@@ -272,13 +272,13 @@ def test_a_write_that_fails_leaves_no_file(volume, tmp_path, monkeypatch, capsys
     """A full disk while the writer writes: one line naming --out, the partial file gone."""
     import errno
 
-    from pasim_blocks.products import export
+    from pasim_blocks.products import exchange_files
 
     def full(tree, fmt, path):
         path.write_bytes(b"half a file")
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(export, "_write", full)
+    monkeypatch.setattr(exchange_files, "_write", full)
     out = tmp_path / "out.nc"
     code, err = pasim(capsys, "export", str(volume), "--format", "cfradial1", "--out", str(out))
     assert code == 2 and err.count("\n") == 1, err
@@ -296,7 +296,7 @@ def test_without_out_the_file_is_named_after_the_store(volume, tmp_path, monkeyp
 
 def test_a_value_odim_cannot_code_is_refused():
     """ODIM's uint16 DBZH holds -327.67 to 327.66 dBZ: 400 dBZ is refused, not wrapped."""
-    from pasim_blocks.products.export import ExportError, odim_encode
+    from pasim_blocks.products.exchange_files import ExportError, odim_encode
 
     sweep = xr.Dataset({"DBZH": (("azimuth", "range"), np.array([[10.0, 400.0]], np.float32))})
     tree = xr.DataTree.from_dict({"/": xr.Dataset(), "sweep_0": sweep})
@@ -307,7 +307,7 @@ def test_a_value_odim_cannot_code_is_refused():
 def test_an_rhi_is_refused_for_odim():
     """ODIM_H5's polar volume holds PPIs: an RHI is refused for it, naming the formats that
     hold one."""
-    from pasim_blocks.products.export import ExportError, check_odim_scans
+    from pasim_blocks.products.exchange_files import ExportError, check_odim_scans
 
     sweep = xr.Dataset({"sweep_mode": "rhi"})
     tree = xr.DataTree.from_dict({"/": xr.Dataset(), "sweep_0": sweep})

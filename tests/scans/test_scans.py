@@ -112,24 +112,30 @@ def test_ppi_scans_at_any_elevation(elevation):
     assert float(beams["sweep_fixed_angle"]) == elevation
 
 
-def test_pattern_scan_lists_every_beam_of_every_sweep():
-    """`pasim pattern --scan` steers every beam the run forms: an RHI's elevations, each cut
-    of a volume, a schedule file's beams in file order within their sweeps."""
-    from pasim_blocks.commands.pattern import scan_beams
+def test_scan_beams_lists_every_beam_of_every_sweep():
+    """The beams `pasim pattern --scan` steers (``scans.scan.scan_beams``), every beam the
+    run forms: an RHI's elevations, each cut of a volume, a schedule file's beams in file
+    order within their sweeps."""
+    from pasim_blocks.scans.scan import scan_beams
     from pasim_blocks.scans.schedule import read_schedule
 
     from pasim_graph import load
 
     from ..conftest import GRAPHS
 
-    rhi = scan_beams(load(GRAPHS / "generic_rhi.yaml"))
+    def beams(path, overrides=None):
+        graph = load(path, overrides)
+        (scan,) = graph.by_role("scan")
+        return scan_beams(graph, scan)
+
+    rhi = beams(GRAPHS / "generic_rhi.yaml")
     assert [e for _, e in rhi] == list(np.arange(0.5, 20.01, 0.5))
-    volume = scan_beams(load(GRAPHS / "generic_vcp212.yaml", {"scan.azimuth_stop_deg": 242.0}))
+    volume = beams(GRAPHS / "generic_vcp212.yaml", {"scan.azimuth_stop_deg": 242.0})
     assert len(volume) == 17 * 2 and volume[0][1] == volume[2][1] == 0.5 and volume[-1][1] == 19.5
     schedule, _ = read_schedule(str(GRAPHS / "atd_schedule.csv"))
-    beams = scan_beams(load(GRAPHS / "atd_schedule.yaml"))
+    listed = beams(GRAPHS / "atd_schedule.yaml")
     order = np.concatenate(schedule.sweeps)
-    np.testing.assert_allclose([a for a, _ in beams], schedule.azimuth[order])
+    np.testing.assert_allclose([a for a, _ in listed], schedule.azimuth[order])
 
 
 @pytest.mark.parametrize(

@@ -38,6 +38,15 @@ def test_time_attributes_are_xradars() -> None:
     assert fm301.TIME_ATTRS["standard_name"] == xm.time_attrs["standard_name"]
 
 
+def test_an_rhi_mode_is_fm301s_rhi_or_manual_rhi_in_any_case() -> None:
+    """``rhi_mode`` reads a mode from another tool's file: FM-301's ``rhi`` and
+    ``manual_rhi``, as some write them in capitals; no PPI mode."""
+    assert fm301.rhi_mode(fm301.SWEEP_MODE_RHI)
+    assert all(fm301.rhi_mode(m) for m in ("manual_rhi", "RHI", "Manual_RHI"))
+    modes = (fm301.SWEEP_MODE_PPI, fm301.SWEEP_MODE_STEERED, "manual_ppi", "sector", "")
+    assert not any(fm301.rhi_mode(m) for m in modes)
+
+
 def test_sweep_names_are_in_sweep_order_not_text_order() -> None:
     """sweep_10 follows sweep_9 (text order would put it after sweep_1); other groups are
     not sweeps."""

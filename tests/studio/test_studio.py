@@ -164,6 +164,22 @@ def test_run_choices_fall_back_to_the_method_choices(monkeypatch):
     assert labels == list(weather.params["method"].choices)
 
 
+def test_run_choices_read_the_declared_fidelity_parameter_not_its_name(monkeypatch):
+    """Without a ladder, the levels are the choices of the parameter the block declares as
+    its fidelity level (``Block.fidelity_param``): a parameter named ``method`` that is not
+    declared gives none, a declared one of another name gives its choices."""
+    weather = registry.get("channel.weather")
+    monkeypatch.setattr(weather, "fidelity_ladder", ())
+    monkeypatch.setattr(weather, "fidelity_param", "")
+    monkeypatch.setattr(weather, "expected_level", "")
+    assert docs.run_choices(generic())["levels"] == []
+    monkeypatch.setattr(weather, "fidelity_param", "precision")
+    choices = docs.run_choices(generic())
+    assert [x["label"] for x in choices["levels"]] == list(weather.params["precision"].choices)
+    assert {tuple(x["set"]) for x in choices["levels"]} == {("precision",)}
+    assert choices["current"] == str(weather.params["precision"].default)
+
+
 def test_folder_lists_graphs_and_finds_level2_files(tmp_path):
     shutil.copytree(GRAPHS, tmp_path / "graphs")
     data = tmp_path / "data"

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from pasim_graph.fm301 import sweep_names
+from pasim_graph.fm301 import SWEEP_MODE_PPI, SWEEP_MODE_RHI, sweep_names
 from pasim_graph.store import DONE, NotAStoreError, beam_dimension, open_finished
 
 __all__ = [
@@ -188,12 +188,8 @@ def check_odim_scans(tree: xr.DataTree, store: str | Path) -> None:
     """Refuse an RHI for ODIM: its polar volume (PVOL, SCAN) holds PPIs only, and an RHI
     written there is read back with azimuth and elevation exchanged (Py-ART's reader)."""
     for name, node in tree.children.items():
-        mode = (
-            str(node["sweep_mode"].values)
-            if "sweep_mode" in node.data_vars
-            else "azimuth_surveillance"
-        )
-        if mode == "rhi":
+        mode = str(node["sweep_mode"].values) if "sweep_mode" in node.data_vars else SWEEP_MODE_PPI
+        if mode == SWEEP_MODE_RHI:
             raise ExportError(
                 f"{store}: {name} is an RHI, which ODIM_H5's polar volume cannot hold; "
                 "export it as cfradial1 or cfradial2"
