@@ -6,7 +6,9 @@ library declares each signal once here and every block uses the same declaration
 
 from __future__ import annotations
 
-from pasim_graph import DATASET, Attr, PortType, Schema, Var
+from typing import Any
+
+from pasim_graph import DATASET, Attr, Chunk, PortType, Schema, Var
 from pasim_graph.fm301 import MOMENT_DOCS, MOMENT_UNITS
 
 SPEED_OF_LIGHT = 299_792_458.0  # m/s
@@ -451,3 +453,27 @@ CORRELATION_PRODUCTS = (
 )
 #: The products an SHV processor uses (the first of CORRELATION_PRODUCTS).
 SHV_PRODUCTS = CORRELATION_PRODUCTS[:5]
+
+
+def check_pulses(iq: Any, chunk: Chunk, block: str) -> None:
+    """Refuse an :data:`IQ` cube whose pulse axis contradicts the run's declared level.
+
+    The level is ``chunk.expected`` (the engine's, from the blocks' fidelity declarations);
+    blocks decide on it, not on the axis. At the expected level the cube has no pulses (a
+    pulse axis of length 0, its true shape); otherwise it has some. A cube that disagrees
+    (a block upstream drew pulses at the expected level, or none when time series are
+    drawn) is a ValueError naming ``block``, not a guess either way.
+    """
+    pulses = int(iq.shape[2])
+    if chunk.expected and pulses:
+        raise ValueError(
+            f"block '{block}': the run is at the expected level (the weather channel's "
+            f"method 'expected' draws no pulses) but the I/Q cube has {pulses} pulses; run "
+            "every weather channel of the graph at the same level"
+        )
+    if not chunk.expected and not pulses:
+        raise ValueError(
+            f"block '{block}': the I/Q cube has no pulses but the run is not at the expected "
+            "level (the weather channel's method is not 'expected', so pulses are drawn); "
+            "a block upstream returned an empty pulse axis"
+        )

@@ -41,6 +41,14 @@ class Chunk:
         None for all; see :meth:`wants`).
     sweep : int
         Index of the sweep of a volume the beams belong to (0 for a one-sweep scan).
+    expected : bool
+        True when a block of the graph that declares a fidelity parameter
+        (:attr:`Block.fidelity_param`) runs at its declared :attr:`Block.expected_level`, so
+        no time series are drawn (the weather channel's ``method: expected``: the I/Q cube's
+        pulse axis has length 0 and the expected correlations stand for it). The executor
+        sets it once per run from the block classes' declarations and the graph's parameter
+        values (:meth:`Graph.at_expected_level`); blocks downstream decide on it, never on an
+        axis's length. False (time series drawn) when a chunk is built without it.
     """
 
     beams: np.ndarray
@@ -49,6 +57,7 @@ class Chunk:
     resource: Any = None
     options: Mapping[str, Any] = field(default_factory=dict)
     sweep: int = 0
+    expected: bool = False
 
     def rng(self, beam: int, *stream: int) -> np.random.Generator:
         """Random generator for one beam, from the run seed, the block name, the sweep and the

@@ -108,6 +108,9 @@ class Plan:
     resources: dict[str, Any] = field(default_factory=dict)
     #: Blocks that run once per sweep on the whole sweep, after its chunks (in order).
     sweep_level: list[str] = field(default_factory=list)
+    #: The run is at the expected level (:meth:`Graph.at_expected_level`): every chunk's
+    #: ``Chunk.expected``.
+    expected: bool = False
 
 
 def plan(graph: Graph, options: RunOptions) -> Plan:
@@ -144,7 +147,14 @@ def plan(graph: Graph, options: RunOptions) -> Plan:
     static = [n for n in order if not graph.classes[n].runs_per_chunk() and n not in stage]
     per_chunk = [n for n in order if graph.classes[n].runs_per_chunk() and n not in stage]
     return Plan(
-        graph, blocks, static, per_chunk, sinks, blocks[source].beam_count(), sweep_level=stage
+        graph,
+        blocks,
+        static,
+        per_chunk,
+        sinks,
+        blocks[source].beam_count(),
+        sweep_level=stage,
+        expected=graph.at_expected_level(),
     )
 
 
@@ -200,6 +210,7 @@ class LocalExecutor:
             resource=p.resources.get(name),
             options={"save_iq": self.options.save_iq, "fields": self.options.fields},
             sweep=self.sweep,
+            expected=p.expected,
         )
         t0 = time.perf_counter()
         try:

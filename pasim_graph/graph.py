@@ -91,6 +91,17 @@ class Graph:
         """The value a block's parameter runs with: the graph's, or the class default."""
         return self.params[block].get(param, self.classes[block].params[param].default)
 
+    def at_expected_level(self) -> bool:
+        """True when a block that declares a fidelity parameter (``Block.fidelity_param``)
+        runs at its declared ``Block.expected_level``: the run draws no time series. Read
+        from the classes' declarations and the parameter values, never from a parameter's
+        name; the executors hand it to every block as ``Chunk.expected``."""
+        return any(
+            bool(cls.fidelity_param and cls.expected_level)
+            and self.value(name, cls.fidelity_param) == cls.expected_level
+            for name, cls in self.classes.items()
+        )
+
     def build(self) -> dict[str, Block]:
         """Instantiate every block with its resolved parameters; each carries the type name its
         graph file gave it (a class registered under two names has two)."""

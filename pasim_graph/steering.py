@@ -26,6 +26,8 @@ class Graph(Protocol):
     classes: dict[str, type[Block]]
     params: dict[str, dict[str, Any]]
 
+    def at_expected_level(self) -> bool: ...
+
 
 class SteeringError(ValueError):
     """Beams of the scan that a block cannot point at; every problem in one line."""
@@ -79,7 +81,14 @@ def nominal_problems(graph: Graph) -> list[Problem]:
         try:
             block = cls(name=source, **{**params, **overrides})
             beams = np.arange(block.beam_count())
-            chunk = Chunk(beams=beams, seed=0, block_name=source, resource=block.load(), sweep=k)
+            chunk = Chunk(
+                beams=beams,
+                seed=0,
+                block_name=source,
+                resource=block.load(),
+                sweep=k,
+                expected=graph.at_expected_level(),
+            )
             out = block.process({}, chunk)
             ds = out[next(iter(cls.outputs))]
             azimuth, elevation = steered(ds)

@@ -20,7 +20,7 @@ import xarray as xr
 from pasim_graph import Block, Chunk, Input, Output, Param
 from pasim_graph.fm301 import MOMENT_FIELDS, POLARIMETRIC_FIELDS
 
-from ..signals import BEAMS, CALIBRATION, IQ, MOMENTS, NOISE_POWER
+from ..signals import BEAMS, CALIBRATION, IQ, MOMENTS, NOISE_POWER, check_pulses
 from .output import Censoring, moments_dataset, thresholds
 
 
@@ -68,7 +68,9 @@ class MomentProcessor(Censoring, Block):
 
     def dwell(self, inputs: dict[str, Any], chunk: Chunk) -> Dwell:
         """The chunk's inputs unpacked, with what every estimator needs read from them;
-        a transmission the processor does not handle is refused."""
+        a transmission the processor does not handle is refused, and so is an I/Q cube whose
+        pulse axis contradicts the run's level (:func:`~pasim_blocks.signals.check_pulses`:
+        a processor decides on ``chunk.expected``, not on the axis)."""
         cal, beams = inputs["calibration"], inputs["beams"]
         mode = str(cal.attrs.get("transmission", "shv"))
         if mode not in self.transmissions:
@@ -79,6 +81,7 @@ class MomentProcessor(Censoring, Block):
             )
         polarimetric = chunk.wants(*POLARIMETRIC_FIELDS)
         iq = inputs["iq"]
+        check_pulses(iq, chunk, self.name)
         if self.p["motion_compensation"] and "platform_radial_velocity" in beams:
             iq = self._compensated(iq, beams, float(cal.attrs["wavelength_m"]))
         return Dwell(

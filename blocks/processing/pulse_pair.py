@@ -218,13 +218,8 @@ class PulsePairProcessor(MomentProcessor):
         if mode == "ahv":
             # The weather channel draws V for AHV's velocity too (its lag 2 of H and V).
             use_v = bool(cal.attrs.get("dual_polarization", 1)) and (polarimetric or doppler)
-            if iq.shape[2] == 0:
-                if inputs.get("echo_correlations") is None:
-                    raise ValueError(
-                        "the I/Q cube has no pulses (weather method 'expected') but the input "
-                        "'echo_correlations' is not connected"
-                    )
-                expected = self.compensated_correlations(inputs["echo_correlations"], d)
+            if chunk.expected:
+                expected = self.compensated_correlations(self._expected(inputs), d)
                 corr = {k: expected[..., i] for i, k in enumerate(CORRELATION_PRODUCTS)}
                 keep = (
                     {"R0_H"}
@@ -246,15 +241,10 @@ class PulsePairProcessor(MomentProcessor):
                     iq[..., 0], iq[..., 1] if use_v else None, doppler or dual, dual
                 )
                 est = alternate_moments(corr, noise[..., 0], noise[..., 1], prt, lam)
-        elif iq.shape[2] == 0:
+        elif chunk.expected:
             # The weather channel's expected level: its expected correlations are what an
             # endless, noise-free dwell would measure.
-            if inputs.get("echo_correlations") is None:
-                raise ValueError(
-                    "the I/Q cube has no pulses (weather method 'expected') but the input "
-                    "'echo_correlations' is not connected"
-                )
-            expected = self.compensated_correlations(inputs["echo_correlations"], d)
+            expected = self.compensated_correlations(self._expected(inputs), d)
             corr = {k: expected[..., i] for i, k in enumerate(CORRELATION_PRODUCTS)}
             keep = (
                 {"R0_H"} | ({"R1_H"} if doppler else set()) | ({"R0_V", "R0_HV"} if dual else set())
@@ -268,3 +258,14 @@ class PulsePairProcessor(MomentProcessor):
         # AHV's velocity comes from a lag of two pulses: half the Nyquist velocity.
         nyquist = lam / (4 * prt) / (2 if mode == "ahv" else 1)
         return self.moments_output(est, noise[..., 0], d, chunk, nyquist)
+
+    def _expected(self, inputs: dict[str, Any]) -> Any:
+        """The expected echo correlations the expected level estimates from (it draws no
+        pulses); refused naming the block when the input is not connected."""
+        if inputs.get("echo_correlations") is None:
+            raise ValueError(
+                f"block '{self.name}': the weather channel's method 'expected' draws no pulses "
+                "(the I/Q cube has none) but the input 'echo_correlations' is not connected; "
+                "connect it to the weather channel's 'echo_correlations'"
+            )
+        return inputs["echo_correlations"]

@@ -210,10 +210,15 @@ class SpectralProcessor(MomentProcessor):
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         d = self.dwell(inputs, chunk)
         iq, noise, prt, lam = d.iq, d.noise, d.prt_s, d.wavelength_m
+        if chunk.expected:
+            raise ValueError(
+                f"block '{self.name}': the spectral processor needs pulses; the weather "
+                "channel's method 'expected' draws none: use processor.pulse_pair, or a "
+                "level that draws them (combined or slower)"
+            )
         if iq.shape[2] < 4:
             raise ValueError(
-                f"the spectral processor needs at least 4 pulses per dwell, got {iq.shape[2]} "
-                "(the weather channel's method 'expected' has none: use processor.pulse_pair)"
+                f"the spectral processor needs at least 4 pulses per dwell, got {iq.shape[2]}"
             )
         iq = cohere_first_trip(iq, d.beams)
         dual = d.dual

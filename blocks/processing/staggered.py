@@ -105,10 +105,16 @@ class StaggeredPrtProcessor(MomentProcessor):
                 "the scan's PRT is uniform: processor.staggered needs scan.ppi's stagger "
                 "(2/3 or 3/4); use processor.pulse_pair for a uniform PRT"
             )
+        if chunk.expected:
+            raise ValueError(
+                f"block '{self.name}': a staggered dwell needs pulses; the weather channel's "
+                "method 'expected' draws none: run it at a level that draws them (combined "
+                "or slower)"
+            )
         if iq.shape[2] < 3:
             raise ValueError(
                 f"a staggered dwell needs at least 3 pulses (one T1 and one T2 pair), got "
-                f"{iq.shape[2]} (the weather channel's method 'expected' has none)"
+                f"{iq.shape[2]}"
             )
         iq = cohere_first_trip(iq, beams)
         t1, lam, dual = d.prt_s, d.wavelength_m, d.dual

@@ -292,6 +292,11 @@ class SZ2Processor(MomentProcessor):
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         d = self.dwell(inputs, chunk)
         iq, noise, cal, beams = d.iq, d.noise, d.calibration, d.beams
+        if chunk.expected:
+            raise ValueError(
+                f"block '{self.name}': SZ-2 needs coded pulses; the weather channel's method "
+                "'expected' draws none: run it at a level that draws them (combined or slower)"
+            )
         pulses = iq.shape[2]
         psi = transmit_phase(beams, pulses)
         if psi is None:

@@ -9,7 +9,7 @@ import xarray as xr
 
 from pasim_graph import DATASET, Attr, Block, Chunk, Input, Output, Param, PortType, Schema, Var
 
-from ..signals import IQ, NOISE_POWER
+from ..signals import IQ, NOISE_POWER, check_pulses
 
 #: What the ADC reports per gate: how many of its samples hit a rail.
 ADC_CLIPPING = PortType(
@@ -119,10 +119,12 @@ class ADC(Block):
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         x = inputs["iq_in"]
-        if x.ndim == 4 and x.shape[2] == 0 and x.shape[1] > 0:
+        check_pulses(x, chunk, self.name)
+        if chunk.expected and x.shape[1] > 0:
             raise ValueError(
-                "receiver.adc: the I/Q cube has no pulses to quantise (the weather channel's "
-                "'expected' level draws none); run at 'combined' or a slower level"
+                f"block '{self.name}' (receiver.adc): the I/Q cube has no pulses to quantise "
+                "(the weather channel's 'expected' level draws none); run at 'combined' or a "
+                "slower level"
             )
         step = self.step()
         bits = int(self.p["bits"])

@@ -36,7 +36,7 @@ import numpy as np
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
-from ..signals import CALIBRATION, IQ, RANGE_RESPONSE, SPEED_OF_LIGHT
+from ..signals import CALIBRATION, IQ, RANGE_RESPONSE, SPEED_OF_LIGHT, check_pulses
 
 #: Grid rate over the Nyquist rate of the highest offset.
 OVERSAMPLE = 4
@@ -142,10 +142,11 @@ class PhaseNoise(Block):
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         iq = inputs["iq_in"]
+        check_pulses(iq, chunk, self.name)
         pulses = iq.shape[2]
-        if pulses == 0 and iq.shape[1] == 0:
+        if chunk.expected and iq.shape[1] == 0:
             return {"iq": iq}
-        if pulses == 0:
+        if chunk.expected:
             raise ValueError(
                 f"block '{self.name}': the I/Q cube has no pulses (weather method 'expected'); "
                 "phase noise needs drawn pulses (method 'combined' or slower)"

@@ -19,6 +19,7 @@ from ..signals import (
     RANGE_RESPONSE,
     SIGNAL_POWER,
     T0_K,
+    check_pulses,
 )
 
 
@@ -73,6 +74,7 @@ class Receiver(Block):
 
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         echo = inputs["iq_in"]
+        check_pulses(echo, chunk, self.name)
         bandwidth = float(inputs["range_response"].attrs["noise_bandwidth_hz"])
         thermal = BOLTZMANN * T0_K * 10 ** (self.p["noise_figure_db"] / 10) * bandwidth
         noise = np.full((*echo.shape[:2], 2), thermal)
@@ -90,7 +92,7 @@ class Receiver(Block):
                 w = chunk.rng(int(beam), k).standard_normal((*echo.shape[1:3], 2), np.float32)
                 out[i, ..., k] += scale[i, :, None, k] * (w[..., 0] + 1j * w[..., 1])
         result: dict[str, Any] = {"iq": out, "noise_power": noise}
-        if chunk.options.get("save_iq") and echo.shape[2] == 0:
+        if chunk.options.get("save_iq") and chunk.expected:
             raise ValueError(
                 "--save-iq: the I/Q cube has no pulses to store (the weather channel's "
                 "'expected' level draws none); run at 'combined' or a slower level"

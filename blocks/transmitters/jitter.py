@@ -21,9 +21,10 @@ that the other port's transmission leaked into is off by the ratio of the two ga
 product of two small quantities). In AHV a pulse has one transmitter (H on even pulses, V on
 odd ones), whose gain multiplies the echo at both ports: exact.
 
-With no pulses (the weather channel's ``expected`` level) the expected correlations are scaled
-by the exact moments of that gain instead: lag 0 by E|G|^2, lags between different pulses by
-|E G|^2 (independent pulses), and the lag-0 H-V cross-correlation by E[G_H* G_V].
+At the weather channel's ``expected`` level (``chunk.expected``: no pulses) the expected
+correlations are scaled by the exact moments of that gain instead: lag 0 by E|G|^2, lags
+between different pulses by |E G|^2 (independent pulses), and the lag-0 H-V
+cross-correlation by E[G_H* G_V].
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ import numpy as np
 
 from pasim_graph import Block, Chunk, Input, Output, Param
 
-from ..signals import CALIBRATION, CORRELATION_PRODUCTS, ECHO_CORRELATIONS, IQ
+from ..signals import CALIBRATION, CORRELATION_PRODUCTS, ECHO_CORRELATIONS, IQ, check_pulses
 
 # Deviates drawn per block of this many (transmitter x pulse) pairs, to bound memory.
 _BLOCK = 1 << 20
@@ -114,9 +115,10 @@ class TransmitterJitter(Block):
         )
         for i, name in enumerate(CORRELATION_PRODUCTS):
             corr[..., i] *= correlation_scale(name, m)
-        pulses = iq.shape[2]
-        if pulses == 0:
+        check_pulses(iq, chunk, self.name)
+        if chunk.expected:
             return {"iq": iq, "echo_correlations": corr}
+        pulses = iq.shape[2]
         alternate = inputs["calibration"].attrs.get("transmission", "shv") == "ahv"
         out = np.empty_like(iq)
         for i, beam in enumerate(chunk.beams):

@@ -108,7 +108,9 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
     - ``expected``: no random draw. The echo's expected correlations (lag 0 and 1 of H and V,
       lag-0 H-V) through the beam and the range response's power (at each cell's velocity);
       the I/Q cube has no pulses and the pulse-pair processor estimates from
-      ``echo_correlations``: the smoothing error alone.
+      ``echo_correlations``: the smoothing error alone. The level is declared
+      (``fidelity_param``, ``expected_level``): the engine hands it to every block as
+      ``Chunk.expected``, which the blocks downstream decide on.
     - ``combined``: each gate's series drawn at once from the pattern- and range-weighted sum
       of its cells' spectra over the whole range response, a 2 x 2 H-V matrix per frequency
       bin of a 2M circulant embedding (exact in distribution per gate for a sum of

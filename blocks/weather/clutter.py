@@ -37,7 +37,7 @@ import xarray as xr
 from pasim_graph import Block, Chunk, Input, Output, Param
 
 from ..angles import circular_difference
-from ..signals import BEAMS, CALIBRATION, IQ, PATTERN, TRUTH
+from ..signals import BEAMS, CALIBRATION, IQ, PATTERN, TRUTH, check_pulses
 from ..timing import code_errors, prt_ratio, pulse_times, transmit_phase
 from .beams import azimuth_profile, cell_solid_angles
 
@@ -184,12 +184,13 @@ class GroundClutter(Block):
     def process(self, inputs: dict[str, Any], chunk: Chunk) -> dict[str, Any]:
         iq_in, truth, beams = inputs["iq_in"], inputs["truth"], inputs["beams"]
         pattern, cal = inputs["pattern"], inputs["calibration"]
-        n_g, pulses = iq_in.shape[1:3]
-        if pulses == 0:
+        check_pulses(iq_in, chunk, self.name)
+        if chunk.expected:
             raise ValueError(
-                "the I/Q cube has no pulses (weather method 'expected'): ground clutter needs "
-                "time series (method combined, covariance or monte_carlo)"
+                f"block '{self.name}': the I/Q cube has no pulses (weather method 'expected'): "
+                "ground clutter needs time series (method combined, covariance or monte_carlo)"
             )
+        n_g, pulses = iq_in.shape[1:3]
         if truth.sizes["gate"] != n_g:
             raise ValueError(f"truth has {truth.sizes['gate']} gates, the I/Q {n_g}")
         key = (id(truth), chunk.seed)

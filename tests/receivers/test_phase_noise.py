@@ -100,7 +100,10 @@ def test_expected_level_and_huge_grid_are_refused():
     block = PhaseNoise(name="pn")
     empty = np.zeros((1, RANGES.size, 0, 2), np.complex64)
     with pytest.raises(ValueError, match="no pulses"):
-        block.process({"iq_in": empty, "calibration": calibration()}, Chunk(beams=np.arange(1)))
+        block.process(
+            {"iq_in": empty, "calibration": calibration()},
+            Chunk(beams=np.arange(1), expected=True),
+        )
     # Without the receive filter the default profile reaches 10 MHz: too fine a grid.
     with pytest.raises(ValueError, match="range_response"):
         PhaseNoise(name="pn", profile_dbc_hz="1e3:-100, 1e9:-100").process(

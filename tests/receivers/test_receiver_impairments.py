@@ -74,7 +74,10 @@ def test_adc_gain_refers_full_scale_to_the_receiver_input():
 def test_adc_needs_pulses():
     adc = ADC(name="adc")
     with pytest.raises(ValueError, match="no pulses"):
-        adc.process({"iq_in": np.zeros((1, 4, 0, 2), np.complex64)}, Chunk(beams=np.arange(1)))
+        adc.process(
+            {"iq_in": np.zeros((1, 4, 0, 2), np.complex64)},
+            Chunk(beams=np.arange(1), expected=True),
+        )
 
 
 def test_12_bit_adc_raises_the_noise_floor_by_step_squared_over_12_per_rail():

@@ -83,7 +83,7 @@ def test_expected_level_scales_the_correlations() -> None:
         name="jitter", amplitude_jitter_db=1.0, phase_jitter_deg=20.0, transmitters=3
     )
     inputs = steady_echo(pulses=0)
-    out = block.process(inputs, Chunk(beams=np.arange(2), block_name="jitter"))
+    out = block.process(inputs, Chunk(beams=np.arange(2), block_name="jitter", expected=True))
     m = jitter_moments(1.0, 20.0, 3, 0.0)
     lagged = abs(m["mean"]) ** 2  # two different pulses
     expected = {"R0_H": m["power"], "R0_V": m["power"], "R0_HV": m["cross"]}

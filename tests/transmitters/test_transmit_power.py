@@ -76,11 +76,11 @@ def generic_snr_db(divider: PowerDivider | None) -> tuple[float, dict]:
         Chunk(beams=beams_idx, block_name="weather"),
     )
     rx = block(graph, "receiver").process(
-        {"iq_in": out["iq"], "range_response": response}, Chunk(beams=beams_idx)
+        {"iq_in": out["iq"], "range_response": response}, Chunk(beams=beams_idx, expected=True)
     )
     gate = int(np.argmin(np.abs(out["calibration"]["range"].values - RANGE_M)))
     snr = out["signal_power"][0, gate, 0] / rx["noise_power"][0, gate, 0]
-    chunk = Chunk(beams=beams_idx)
+    chunk = Chunk(beams=beams_idx, expected=True)
     moments = block(graph, "ppp").process(
         {
             "iq": rx["iq"],

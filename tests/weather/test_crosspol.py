@@ -94,7 +94,7 @@ def moments(inputs: dict, method: str = "expected", seed: int = 0, **weather):
             "beams": inputs["beams"],
             "echo_correlations": out["echo_correlations"],
         },
-        Chunk(beams=beams),
+        Chunk(beams=beams, expected=method == "expected"),
     )["moments"]
     return m.isel(range=slice(3, -3))
 
