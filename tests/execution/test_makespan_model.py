@@ -69,3 +69,22 @@ def test_two_workers_on_two_cores_cannot_beat_the_cpu_they_need(bench):
     assert on_two["chunks_s"] == pytest.approx(6.0)
     assert bench.predict(model, 2)["chunks_s"] == pytest.approx(6.0)  # a core each: the same
     assert bench.predict(model, 4, cores=4)["chunks_s"] == pytest.approx(3.0)
+
+
+def test_the_study_model_counts_set_up_steps_and_tasks_once(bench):
+    """A one-worker study of two runs (made up): each run's set-up steps (load, layout) and its
+    tasks are the work; the cluster's connection and the chunk phase (a step spanning the
+    tasks) are not counted again. Work 2 x (0.5 + 1.5 + 3 x 2) = 16 s; 20 s of wall leave a
+    rest of 4 s; 30 s of CPU, 26 beside the work: 2 workers on 2 cores, 4 + max(8, 13)."""
+    run = {
+        "steps": [
+            {"kind": "load", "start": 0.0, "stop": 0.5},
+            {"kind": "connect", "start": 0.0, "stop": 3.0},
+            {"kind": "layout", "start": 0.5, "stop": 2.0},
+            {"kind": "chunks", "start": 3.0, "stop": 9.0},
+        ],
+        "tasks": [{"start": 3.0 + 2 * i, "stop": 5.0 + 2 * i} for i in range(3)],
+    }
+    model = bench.study_model({"records": [run, run], "wall_s": 20.0, "cpu_s": 30.0})
+    assert model == {"work_s": 16.0, "rest_s": 4.0, "beside_cpu_s": 26.0}
+    assert bench.predict_study(model, 2, 2) == 17.0
