@@ -26,6 +26,7 @@ from .command_api import (
     load_graph,
     parse_seed,
 )
+from .contracts import ScoringCommand
 from .graph import Graph, GraphError
 from .interrupt import StopMessage, Stopped, stop_on_signals
 from .outputs import write_atomic
@@ -219,8 +220,11 @@ def cmd_score(args: argparse.Namespace) -> int:
         # Against another store or per azimuth: the radar scoring is the block library's
         # (its `compare` command), reached through the plugin registry.
         command = registry.commands().get("compare")
-        if command is None or not hasattr(command, "score"):
-            raise UserError("--against and --by need the block library's `compare` command")
+        if not isinstance(command, ScoringCommand):
+            raise UserError(
+                "--against and --by need the block library's `compare` command (a "
+                "pasim_graph.contracts.ScoringCommand)"
+            )
         return int(command.score(args))
     try:
         # refuses, naming it, a store that is missing, unfinished or damaged

@@ -33,6 +33,15 @@ class Command(Protocol):
     def run(self, args: argparse.Namespace) -> int: ...
 
 
+@runtime_checkable
+class ScoringCommand(Command, Protocol):
+    """The ``compare`` command as the engine's ``pasim score`` needs it: a :class:`Command`
+    that also scores one store against another (``--against REF.zarr``) or by azimuth
+    (``--by azimuth[:BIN]``), with ``pasim score``'s parsed options; returns the exit status."""
+
+    def score(self, args: argparse.Namespace) -> int: ...
+
+
 #: The members of :class:`Command`, in the order a missing one is named.
 COMMAND_MEMBERS = ("help", "configure", "run")
 

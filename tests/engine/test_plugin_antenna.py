@@ -36,6 +36,7 @@ from scipy.optimize import brentq, minimize_scalar
 
 from pasim_graph import Chunk, block, registry
 from pasim_graph.command_api import Command
+from pasim_graph.contracts import ScoringCommand
 
 from ..conftest import FIXTURES, pasim, pasim_out
 
@@ -235,3 +236,16 @@ def test_a_command_is_checked_against_the_protocol(monkeypatch) -> None:
         assert all(isinstance(c, Command) for c in found.values())
     finally:
         registry.commands.cache_clear()
+
+
+def test_pasim_score_against_needs_a_scoring_compare_command(monkeypatch, capsys) -> None:
+    """``pasim score --against`` reaches the library's ``compare`` command through the declared
+    ScoringCommand contract: the library's is one; a ``compare`` that is only a Command (no
+    ``score``) is refused with one line naming the contract, before any store is read."""
+    library = registry.commands()["compare"]
+    assert isinstance(library, ScoringCommand)
+    monkeypatch.setattr(registry, "commands", lambda: {"compare": FINE})
+    code, err = pasim(capsys, "score", "nowhere.zarr", "--against", "ref.zarr")
+    assert code == 2, err
+    assert "need the block library's `compare` command" in err and "ScoringCommand" in err, err
+    assert "Traceback" not in err
