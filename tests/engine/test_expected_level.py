@@ -6,7 +6,7 @@ pulse axis contradicts it refuses, naming itself."""
 from __future__ import annotations
 
 import pickle
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 import pytest
@@ -25,19 +25,11 @@ from pasim_graph import Block, Chunk, Param, load
 from pasim_graph.executor import LocalExecutor, RunOptions
 
 from ..conftest import GRAPHS
+from .test_fidelity_declaration import Leveled
 
 UNIFORM = GRAPHS / "uniform_ideal.yaml"
 #: Two beams of eight pulses of the uniform scene.
 SMALL = {"scan.azimuth_stop_deg": 2.0, "scan.pulses": 8}
-
-
-class Leveled(Block):
-    """A fidelity parameter that is not called ``method``, beside a ``method`` that is not one."""
-
-    level = Param("full", type="str", choices=("noise_free", "full"), doc="fidelity")
-    method = Param("a", type="str", choices=("a", "expected"), doc="not a fidelity level")
-    fidelity_param: ClassVar[str] = "level"
-    expected_level: ClassVar[str] = "noise_free"
 
 
 class Undeclared(Block):

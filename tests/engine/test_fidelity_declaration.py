@@ -15,6 +15,8 @@ from ..conftest import GRAPHS
 
 
 class Leveled(Block):
+    """A fidelity parameter that is not called ``method``, beside a ``method`` that is not one."""
+
     level = Param("full", type="str", choices=("noise_free", "full"), doc="fidelity")
     method = Param("a", type="str", choices=("a", "expected"), doc="not a fidelity level")
     fidelity_param: ClassVar[str] = "level"
