@@ -7,15 +7,18 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+import xarray as xr
 
-# Moments used for a cell that has reflectivity but lacks another field (e.g. beyond the
-# Doppler cut's range): a still, narrow-spectrum, well-correlated echo.
+from ..angles import circular_difference
+from ..truth.volume import elevation_weights
 from .cells import TruthCells
+from .chunk_setting import ChunkSetting
 from .fasttime import RangeModel
 from .polarimetry import (
     SOURCE_COMPONENTS,
     channel_rows,
     pairs,
+    receive_channels,
 )
 
 
@@ -255,3 +258,79 @@ def significant_cells(power: np.ndarray, gate: np.ndarray, fraction: float) -> n
     total = np.repeat(cum[np.r_[first[1:] - 1, p.size - 1]], counts) - before
     keep[order] = (cum - before) > fraction * total
     return keep
+
+
+def weighted_cells(
+    run: ChunkSetting,
+    truth: xr.Dataset,
+    beams: xr.Dataset,
+    pattern: xr.Dataset,
+    i: int,
+    support: float,
+    support_db: float,
+    elevation_support_db: float,
+) -> tuple[np.ndarray, np.ndarray, Coupling | None]:
+    """Beam ``i``'s truth cells and their weights: the rows of the cells whose radials the
+    pattern grid reaches (``support``, deg) and weighs above ``support_db`` (a volume's sweeps
+    above ``elevation_support_db`` in elevation), their two-way
+    solid angles (polarisation x cell), and with complex co- and cross-polar fields the
+    two-way coupling of their channels."""
+    d_az = pattern["azimuth_offset_deg"].values
+    d_el = pattern["elevation_offset_deg"].values
+    az_b = float(beams["azimuth"].values[i])
+    el_b = float(beams["elevation"].values[i])
+    delta = circular_difference(run.az_truth, np.asarray(az_b), 360.0)
+    near = np.flatnonzero(np.abs(delta) <= support)
+    if run.volume:
+        # Each sweep weighted by the two-way pattern over the elevations it stands for.
+        seen_by = volume_beam(
+            pattern["power"].values[i],
+            d_az,
+            d_el,
+            el_b,
+            near,
+            delta[near],
+            run.width_deg,
+            elevation_weights(
+                truth["sweep_elevation"].values,
+                el_b + d_el,
+                str(truth.attrs["elevation_interpolation"]),
+                float(truth.attrs["sweep_beamwidth_deg"]),
+            ),
+            run.az_truth.size,
+            elevation_support_db,
+        )
+        near_az, near, omega = near, seen_by.near, seen_by.omega
+        strongest = omega.max(axis=0, initial=0.0)
+        floor = strongest.max(initial=0.0) * 10 ** (support_db / 10)
+        keep = (strongest >= floor) & (strongest > 0)
+    else:
+        profile = azimuth_profile(pattern["power"].values[i], d_el, el_b)
+        omega = cell_solid_angles(profile, d_az, delta[near], run.width_deg)
+        keep = omega.max(axis=0) >= omega.max() * 10 ** (support_db / 10)
+    near, omega = near[keep], omega[:, keep]
+    if not run.coupled:
+        return near, omega, None
+    # The expected correlations need both co-polar channels whatever is drawn.
+    chans = receive_channels(run.mode, True)[: max(2, run.drawn)]
+    co, cross = pattern["co_polar"].values[i], pattern["cross_polar"].values[i]
+    if run.volume:
+        weights = volume_coupling(
+            co,
+            cross,
+            d_az,
+            d_el,
+            el_b,
+            delta[near_az],
+            run.width_deg,
+            run.mode,
+            run.beta,
+            chans,
+            seen_by.sweeps,
+            keep,
+        )
+    else:
+        weights = coupling_weights(
+            co, cross, d_az, d_el, el_b, delta[near], run.width_deg, run.mode, run.beta, chans
+        )
+    return near, omega, Coupling(len(chans), weights)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -11,7 +10,6 @@ import xarray as xr
 from pasim_graph import Block, Chunk, Input, Output, Param
 from pasim_graph.fm301 import POLARIMETRIC_FIELDS
 
-from ..angles import circular_difference
 from ..propagation.path import (
     PropagationParams,
     note,
@@ -27,25 +25,17 @@ from ..signals import (
     IQ,
     KW2,
     PATTERN,
-    POLARIZATIONS,
     RANGE_RESPONSE,
     SHV_PRODUCTS,
     SIGNAL_POWER,
     SPEED_OF_LIGHT,
     TRUTH,
 )
-from ..timing import code_errors, fine_grid, prt_ratio, transmit_phase
-from ..truth.volume import elevation_weights, is_volume
-from .beams import (
-    BeamDraw,
-    Coupling,
-    azimuth_profile,
-    cell_solid_angles,
-    coupling_weights,
-    volume_beam,
-    volume_coupling,
-)
+from ..timing import fine_grid, prt_ratio
+from ..truth.volume import is_volume
+from .beams import BeamDraw, weighted_cells
 from .cells import TruthCells, flat_volume
+from .chunk_setting import ChunkSetting
 from .combined import draw_combined, draw_combined_coupled, draw_tones, draw_tones_coupled
 from .coverage import check_coverage
 from .dsd import DropSizes
@@ -57,38 +47,13 @@ from .polarimetry import (
     MODES,
     receive_channels,
 )
-from .power import transmit_power
-from .trips import fold_trips, overlaid_power, trip_count, trip_offsets
+from .power import radar_calibration
+from .trips import fold_echo
 from .width import WidthParams, radar_widths, scan_broadening
 
 #: Fidelity levels of the weather channel, fastest first.
 METHODS = ("expected", "combined", "covariance", "monte_carlo")
 _COVARIANCE = {"method": "covariance", "support_db": -100.0}
-
-
-@dataclass(frozen=True)
-class _Run:
-    """What every beam of a chunk shares (:meth:`WeatherChannel._run`)."""
-
-    method: str
-    dtype: type
-    lam: float  # wavelength (m)
-    prt: float  # the drawing grid's step (s): the PRT, or a staggered scan's unit u
-    prt_t1: float  # the scan's (first) PRT (s)
-    pulses: int  # pulses on the drawing grid
-    staggered: tuple[float, np.ndarray] | None  # u and the pulses' indices on the grid
-    rng_m: np.ndarray  # the truth's gate ranges
-    gate_m: float
-    width_deg: float  # the truth's radial width
-    az_truth: np.ndarray
-    dual: bool  # the truth is dual-polarisation
-    mode: str  # transmission: shv or ahv
-    beta: float  # transmit differential phase (deg)
-    need_v: bool  # the V channel is drawn
-    coupled: bool  # H and V coupled through complex co- and cross-polar fields
-    k0: float  # the radar equation's constant (W per sr m of truth power)
-    volume: bool  # a volume truth
-    drawn: int  # receive channels drawn (0 at the expected level)
 
 
 class WeatherChannel(PropagationParams, WidthParams, Block):
@@ -300,7 +265,7 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
         path = self._propagated(truth, run.volume)
         iq, corr, ranges = self._echoes(run, inputs, chunk, broadening, path)
         iq, corr, overlay = self._received(run, iq, corr, beams, response)
-        calibration = self._calibration(run, inputs, ranges, path, overlay)
+        calibration = radar_calibration(run, self.p["peak_power_w"], inputs, ranges, path, overlay)
         power = corr[..., :2].real.astype(np.float32)
         return {
             "iq": np.moveaxis(iq.astype(np.complex64, copy=False), 1, -1),
@@ -309,7 +274,9 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
             "calibration": calibration,
         }
 
-    def _run(self, truth: xr.Dataset, beams: xr.Dataset, pattern: xr.Dataset, chunk: Chunk) -> _Run:
+    def _run(
+        self, truth: xr.Dataset, beams: xr.Dataset, pattern: xr.Dataset, chunk: Chunk
+    ) -> ChunkSetting:
         """What every beam of the chunk shares: the radar's and the truth's geometry, the
         channels drawn, and the radar equation's constant."""
         method = self.p["method"]
@@ -338,7 +305,7 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
             * 1e-18
             / ((4 * np.pi) ** 3 * lam**4 * 10 ** (self.p["loss_db"] / 10))
         )
-        return _Run(
+        return ChunkSetting(
             method=method,
             dtype=dtype,
             lam=lam,
@@ -363,7 +330,7 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
 
     def _cells(
         self,
-        run: _Run,
+        run: ChunkSetting,
         truth: xr.Dataset,
         response: xr.Dataset,
         path: tuple[xr.Dataset, Any] | None,
@@ -410,7 +377,7 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
 
     def _echoes(
         self,
-        run: _Run,
+        run: ChunkSetting,
         inputs: dict[str, Any],
         chunk: Chunk,
         broadening: np.ndarray,
@@ -438,7 +405,16 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
         # Beams of equal scan modulation one after another: their cells are prepared once.
         for i in np.argsort(broadening, kind="stable"):
             ranges, cells = self._cells(run, truth, response, path, broadening[i])
-            near, omega, coupling = self._weighted_cells(run, truth, beams, pattern, i, support)
+            near, omega, coupling = weighted_cells(
+                run,
+                truth,
+                beams,
+                pattern,
+                i,
+                support,
+                self.p["support_db"],
+                self.p["elevation_support_db"],
+            )
             cells.prepare(near)
             terms = ranges.power.shape[0]
             alternate = run.mode == "ahv"
@@ -472,82 +448,9 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
             _draw(iq[i], draw, run, coupling is not None)
         return iq, corr, ranges
 
-    def _weighted_cells(
-        self,
-        run: _Run,
-        truth: xr.Dataset,
-        beams: xr.Dataset,
-        pattern: xr.Dataset,
-        i: int,
-        support: float,
-    ) -> tuple[np.ndarray, np.ndarray, Coupling | None]:
-        """Beam ``i``'s truth cells and their weights: the rows of the cells whose radials the
-        pattern grid reaches (``support``) and weighs above ``support_db``, their two-way
-        solid angles (polarisation x cell), and with complex co- and cross-polar fields the
-        two-way coupling of their channels."""
-        d_az = pattern["azimuth_offset_deg"].values
-        d_el = pattern["elevation_offset_deg"].values
-        az_b = float(beams["azimuth"].values[i])
-        el_b = float(beams["elevation"].values[i])
-        delta = circular_difference(run.az_truth, np.asarray(az_b), 360.0)
-        near = np.flatnonzero(np.abs(delta) <= support)
-        if run.volume:
-            # Each sweep weighted by the two-way pattern over the elevations it stands for.
-            seen_by = volume_beam(
-                pattern["power"].values[i],
-                d_az,
-                d_el,
-                el_b,
-                near,
-                delta[near],
-                run.width_deg,
-                elevation_weights(
-                    truth["sweep_elevation"].values,
-                    el_b + d_el,
-                    str(truth.attrs["elevation_interpolation"]),
-                    float(truth.attrs["sweep_beamwidth_deg"]),
-                ),
-                run.az_truth.size,
-                self.p["elevation_support_db"],
-            )
-            near_az, near, omega = near, seen_by.near, seen_by.omega
-            strongest = omega.max(axis=0, initial=0.0)
-            floor = strongest.max(initial=0.0) * 10 ** (self.p["support_db"] / 10)
-            keep = (strongest >= floor) & (strongest > 0)
-        else:
-            profile = azimuth_profile(pattern["power"].values[i], d_el, el_b)
-            omega = cell_solid_angles(profile, d_az, delta[near], run.width_deg)
-            keep = omega.max(axis=0) >= omega.max() * 10 ** (self.p["support_db"] / 10)
-        near, omega = near[keep], omega[:, keep]
-        if not run.coupled:
-            return near, omega, None
-        # The expected correlations need both co-polar channels whatever is drawn.
-        chans = receive_channels(run.mode, True)[: max(2, run.drawn)]
-        co, cross = pattern["co_polar"].values[i], pattern["cross_polar"].values[i]
-        if run.volume:
-            weights = volume_coupling(
-                co,
-                cross,
-                d_az,
-                d_el,
-                el_b,
-                delta[near_az],
-                run.width_deg,
-                run.mode,
-                run.beta,
-                chans,
-                seen_by.sweeps,
-                keep,
-            )
-        else:
-            weights = coupling_weights(
-                co, cross, d_az, d_el, el_b, delta[near], run.width_deg, run.mode, run.beta, chans
-            )
-        return near, omega, Coupling(len(chans), weights)
-
     def _received(
         self,
-        run: _Run,
+        run: ChunkSetting,
         iq: np.ndarray,
         corr: np.ndarray,
         beams: xr.Dataset,
@@ -558,7 +461,9 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
         or None), the platform's approach, nothing inside the blind range."""
         if run.staggered is not None:
             iq = iq[..., run.staggered[1]]
-        folded = self._fold(iq, corr, beams, run.rng_m, run.gate_m, run.method)
+        folded = fold_echo(
+            iq, corr, beams, run.rng_m, run.gate_m, run.method, self.p["range_folding"]
+        )
         overlay = None
         if folded is not None:
             iq, corr, overlay = folded
@@ -577,60 +482,6 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
         corr[:, blind] = 0
         return iq, corr, overlay
 
-    def _calibration(
-        self,
-        run: _Run,
-        inputs: dict[str, Any],
-        ranges: RangeModel,
-        path: tuple[xr.Dataset, Any] | None,
-        overlay: np.ndarray | None,
-    ) -> xr.Dataset:
-        """The radar constant per beam and polarisation (power -> dBZ) with what the
-        processors need of the radar, the path's attenuation along each beam's axis and the
-        overlaid trips' power."""
-        truth, beams = inputs["truth"], inputs["beams"]
-        pattern, response = inputs["pattern"], inputs["range_response"]
-        omega_cal = pattern["calibration_solid_angle_sr"].values  # beam x polarisation
-        constant_db = 10 * np.log10(run.k0 * omega_cal * ranges.total_m)
-        calibration = xr.Dataset(
-            {
-                "radar_constant_db": (
-                    ("beam", "polarization"),
-                    constant_db.astype(np.float64),
-                    {"units": "dB"},
-                )
-            },
-            coords={
-                "range": ("range", run.rng_m, {"units": "meters"}),
-                "polarization": list(POLARIZATIONS),
-            },
-            attrs={
-                "wavelength_m": run.lam,
-                "prt_s": run.prt_t1,
-                "dual_polarization": int(run.dual),
-                "blind_range_m": float(response.attrs["blind_range_m"]),
-                "calibration": str(pattern.attrs["calibration"]),
-                "transmission": run.mode,
-                "transmit_differential_phase_deg": run.beta,
-                "cross_polar_coupling": int(run.coupled),
-                **transmit_power(self.p["peak_power_w"], response),
-            },
-        )
-        if path is not None:
-            calibration["path_attenuation_db"] = (
-                ("beam", "range", "polarization"),
-                _axis_attenuation(path[1], truth, beams, run.volume),
-                {"units": "dB", "long_name": "two-way path attenuation along the beam's axis"},
-            )
-        if overlay is not None:
-            calibration.attrs["unambiguous_range_m"] = SPEED_OF_LIGHT * run.prt_t1 / 2
-            calibration["overlaid_power_ratio_db"] = (
-                ("beam", "range"),
-                overlay,
-                {"units": "dB", "long_name": "power of the other trips over the gate's own"},
-            )
-        return calibration
-
     def _propagated(self, truth: xr.Dataset, volume: bool) -> tuple[xr.Dataset, Any] | None:
         """The truth cells (a volume's flattened) through the path and the path, when
         propagation is on (None when off); computed once per truth."""
@@ -645,69 +496,6 @@ class WeatherChannel(PropagationParams, WidthParams, Block):
                 elevation = np.full(truth.sizes["radial"], float(truth.attrs["elevation_deg"]))
             self._path = (id(truth), propagate(seen, elevation, self.p))
         return self._path[1]
-
-    def _fold(
-        self,
-        iq: np.ndarray,
-        corr: np.ndarray,
-        beams: xr.Dataset,
-        rng_m: np.ndarray,
-        gate_m: float,
-        method: str,
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """The trips folded onto the apparent gates (:mod:`pasim_blocks.weather.trips`):
-        the I/Q, the correlations (the gate's own trip; nothing beyond the unambiguous
-        range) and the other trips' power over the gate's own (dB). None when nothing folds
-        and no phase code is transmitted."""
-        prt = float(beams["prt"].values[0])
-        pulses = int(beams["pulses"].values)
-        ratio = prt_ratio(beams)
-        phase = transmit_phase(beams, pulses)
-        trips = trip_count(rng_m, prt) if self.p["range_folding"] else 1
-        if trips == 1 and phase is None:
-            return None
-        if method == "expected" and phase is not None:
-            raise ValueError(
-                "a phase code (scan.ppi's phase_code) needs time series: the weather "
-                "channel's method 'expected' has none (use combined, covariance or "
-                "monte_carlo, or phase_code none)"
-            )
-        if method == "expected":
-            raise ValueError(
-                "range folding and phase codes need time series: the weather channel's "
-                "method 'expected' has none (use combined, covariance or monte_carlo, or set "
-                "range_folding false)"
-            )
-        r_a = SPEED_OF_LIGHT * prt / 2
-        visible = rng_m < r_a if trips > 1 else np.ones(rng_m.size, bool)
-        offsets = trip_offsets(pulses, prt, ratio, gate_m, trips)
-        errors = code_errors(beams, pulses) if phase is not None else None
-        if errors is None:
-            folded = fold_trips(iq, offsets, visible, phase)
-        else:  # the echoes carry what was transmitted: the code with its errors
-            folded = fold_trips(iq, offsets, visible, phase + errors[0], errors[1])
-        own = corr[..., 0].real
-        other = overlaid_power(own, offsets, visible)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio_db = 10 * np.log10(other / own)
-        ratio_db = np.where(visible[None, :], ratio_db, np.nan).astype(np.float32)
-        # The correlations stay each gate's own echo (a processor may recover a far trip).
-        return folded, corr, ratio_db
-
-
-def _axis_attenuation(path: Any, truth: xr.Dataset, beams: xr.Dataset, volume: bool) -> np.ndarray:
-    """Two-way attenuation (dB) of H and V along each beam's axis: the truth radial nearest
-    its azimuth (of a volume, in the sweep nearest its elevation); beam x range x pol."""
-    az = truth["azimuth"].values
-    rows = np.argmin(
-        np.abs(circular_difference(az[None, :], beams["azimuth"].values[:, None], 360.0)), axis=1
-    )
-    if volume:
-        sweeps = truth["sweep_elevation"].values
-        nearest = np.argmin(np.abs(sweeps[None, :] - beams["elevation"].values[:, None]), axis=1)
-        rows = rows + nearest * az.size
-    h = path.attenuation_h_db[rows]
-    return np.stack([h, h - path.differential_db[rows]], axis=-1)
 
 
 def _staggered_grid(
@@ -743,7 +531,7 @@ def _beta_factors(beta_deg: float) -> np.ndarray:
     return np.array([factors.get(k, 1.0) for k in CORRELATION_PRODUCTS])
 
 
-def _draw(iq: np.ndarray, draw: BeamDraw, run: _Run, coupled: bool) -> None:
+def _draw(iq: np.ndarray, draw: BeamDraw, run: ChunkSetting, coupled: bool) -> None:
     """Add one beam's drawn echo series to ``iq`` (polarisation x gate x pulse): at the
     combined level the gates' spectral draws and the tones, then the cells drawn one by one."""
     if coupled:

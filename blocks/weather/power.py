@@ -1,5 +1,6 @@
-"""The transmit power a run used, stated as a radar engineer states it (per port, or a
-divided total), for the calibration's attributes and the score's rule."""
+"""The weather channel's calibration output: the radar constant per beam and polarisation, the
+transmit power a run used, stated as a radar engineer states it (per port, or a divided
+total; also the score's rule), the path's attenuation along each beam's axis."""
 
 from __future__ import annotations
 
@@ -7,6 +8,11 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+
+from ..angles import circular_difference
+from ..signals import POLARIZATIONS, SPEED_OF_LIGHT
+from .chunk_setting import ChunkSetting
+from .fasttime import RangeModel
 
 
 def transmit_power(peak_power_w: float, response: xr.Dataset) -> dict[str, Any]:
@@ -38,3 +44,73 @@ def watts(w: float) -> str:
         if w >= scale:
             return f"{w / scale:.4g} {unit}"
     return f"{w:.4g} W"
+
+
+def radar_calibration(
+    run: ChunkSetting,
+    peak_power_w: float,
+    inputs: dict[str, Any],
+    ranges: RangeModel,
+    path: tuple[xr.Dataset, Any] | None,
+    overlay: np.ndarray | None,
+) -> xr.Dataset:
+    """The radar constant per beam and polarisation (power -> dBZ) with what the
+    processors need of the radar, the path's attenuation along each beam's axis and the
+    overlaid trips' power."""
+    truth, beams = inputs["truth"], inputs["beams"]
+    pattern, response = inputs["pattern"], inputs["range_response"]
+    omega_cal = pattern["calibration_solid_angle_sr"].values  # beam x polarisation
+    constant_db = 10 * np.log10(run.k0 * omega_cal * ranges.total_m)
+    calibration = xr.Dataset(
+        {
+            "radar_constant_db": (
+                ("beam", "polarization"),
+                constant_db.astype(np.float64),
+                {"units": "dB"},
+            )
+        },
+        coords={
+            "range": ("range", run.rng_m, {"units": "meters"}),
+            "polarization": list(POLARIZATIONS),
+        },
+        attrs={
+            "wavelength_m": run.lam,
+            "prt_s": run.prt_t1,
+            "dual_polarization": int(run.dual),
+            "blind_range_m": float(response.attrs["blind_range_m"]),
+            "calibration": str(pattern.attrs["calibration"]),
+            "transmission": run.mode,
+            "transmit_differential_phase_deg": run.beta,
+            "cross_polar_coupling": int(run.coupled),
+            **transmit_power(peak_power_w, response),
+        },
+    )
+    if path is not None:
+        calibration["path_attenuation_db"] = (
+            ("beam", "range", "polarization"),
+            axis_attenuation(path[1], truth, beams, run.volume),
+            {"units": "dB", "long_name": "two-way path attenuation along the beam's axis"},
+        )
+    if overlay is not None:
+        calibration.attrs["unambiguous_range_m"] = SPEED_OF_LIGHT * run.prt_t1 / 2
+        calibration["overlaid_power_ratio_db"] = (
+            ("beam", "range"),
+            overlay,
+            {"units": "dB", "long_name": "power of the other trips over the gate's own"},
+        )
+    return calibration
+
+
+def axis_attenuation(path: Any, truth: xr.Dataset, beams: xr.Dataset, volume: bool) -> np.ndarray:
+    """Two-way attenuation (dB) of H and V along each beam's axis: the truth radial nearest
+    its azimuth (of a volume, in the sweep nearest its elevation); beam x range x pol."""
+    az = truth["azimuth"].values
+    rows = np.argmin(
+        np.abs(circular_difference(az[None, :], beams["azimuth"].values[:, None], 360.0)), axis=1
+    )
+    if volume:
+        sweeps = truth["sweep_elevation"].values
+        nearest = np.argmin(np.abs(sweeps[None, :] - beams["elevation"].values[:, None]), axis=1)
+        rows = rows + nearest * az.size
+    h = path.attenuation_h_db[rows]
+    return np.stack([h, h - path.differential_db[rows]], axis=-1)

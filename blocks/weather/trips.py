@@ -17,8 +17,10 @@ from __future__ import annotations
 from fractions import Fraction
 
 import numpy as np
+import xarray as xr
 
 from ..signals import SPEED_OF_LIGHT
+from ..timing import code_errors, prt_ratio, transmit_phase
 
 
 def transmit_times(indices: np.ndarray, prt_s: float, ratio: Fraction | None) -> np.ndarray:
@@ -93,3 +95,52 @@ def overlaid_power(power: np.ndarray, offsets: np.ndarray, visible: np.ndarray) 
         ok = src < n_g
         out[:, gates[ok]] += power[:, src[ok]]
     return out
+
+
+def fold_echo(
+    iq: np.ndarray,
+    corr: np.ndarray,
+    beams: xr.Dataset,
+    rng_m: np.ndarray,
+    gate_m: float,
+    method: str,
+    range_folding: bool,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The trips folded onto the apparent gates (:mod:`pasim_blocks.weather.trips`):
+    the I/Q, the correlations (the gate's own trip; nothing beyond the unambiguous
+    range) and the other trips' power over the gate's own (dB). None when nothing folds
+    and no phase code is transmitted."""
+    prt = float(beams["prt"].values[0])
+    pulses = int(beams["pulses"].values)
+    ratio = prt_ratio(beams)
+    phase = transmit_phase(beams, pulses)
+    trips = trip_count(rng_m, prt) if range_folding else 1
+    if trips == 1 and phase is None:
+        return None
+    if method == "expected" and phase is not None:
+        raise ValueError(
+            "a phase code (scan.ppi's phase_code) needs time series: the weather "
+            "channel's method 'expected' has none (use combined, covariance or "
+            "monte_carlo, or phase_code none)"
+        )
+    if method == "expected":
+        raise ValueError(
+            "range folding and phase codes need time series: the weather channel's "
+            "method 'expected' has none (use combined, covariance or monte_carlo, or set "
+            "range_folding false)"
+        )
+    r_a = SPEED_OF_LIGHT * prt / 2
+    visible = rng_m < r_a if trips > 1 else np.ones(rng_m.size, bool)
+    offsets = trip_offsets(pulses, prt, ratio, gate_m, trips)
+    errors = code_errors(beams, pulses) if phase is not None else None
+    if errors is None:
+        folded = fold_trips(iq, offsets, visible, phase)
+    else:  # the echoes carry what was transmitted: the code with its errors
+        folded = fold_trips(iq, offsets, visible, phase + errors[0], errors[1])
+    own = corr[..., 0].real
+    other = overlaid_power(own, offsets, visible)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio_db = 10 * np.log10(other / own)
+    ratio_db = np.where(visible[None, :], ratio_db, np.nan).astype(np.float32)
+    # The correlations stay each gate's own echo (a processor may recover a far trip).
+    return folded, corr, ratio_db
