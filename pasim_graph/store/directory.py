@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from .check import some, symbolic_links
-from .format import MARKER, is_store, run_state, write_marker
+from .format import MARKER, is_store, marker_cut_short, run_state, write_marker
 from .lock import LOCK, StoreError, StoreLock
 
 
@@ -66,6 +66,10 @@ def open_store(path: str | Path, *, overwrite: bool, resume: bool, command: str)
     try:
         # Checked again under the lock: another run may have made the store meanwhile.
         existing = set(_entries(path)) - {LOCK}
+        if existing == {MARKER} and marker_cut_short(path):
+            # Only a marker cut short (a run stopped while marking its new store): nobody is
+            # making it now (the lock is ours), so it is a new store, marked again below.
+            existing = set()
         if existing and not is_store(path):
             raise StoreError(f"{path} is not a store this program wrote; choose another --out")
         if existing and not (overwrite or resume):

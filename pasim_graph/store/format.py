@@ -37,13 +37,25 @@ def is_store(path: str | Path) -> bool:
         return False
 
 
-def write_marker(path: Path) -> None:
-    """Mark ``path`` as a store of this program's (the first file written into it)."""
+def _marker_text() -> str:
     from .. import __version__
 
-    (path / MARKER).write_text(
-        json.dumps({"format": _MARKER_FORMAT, "writer": f"pasim-graph {__version__}"}) + "\n"
-    )
+    return json.dumps({"format": _MARKER_FORMAT, "writer": f"pasim-graph {__version__}"}) + "\n"
+
+
+def write_marker(path: Path) -> None:
+    """Mark ``path`` as a store of this program's (the first file written into it)."""
+    (path / MARKER).write_text(_marker_text())
+
+
+def marker_cut_short(path: str | Path) -> bool:
+    """True when ``path``'s marker is the start of the one :func:`write_marker` writes, left
+    unfinished (a run stopped while marking its new store); not a marker of anyone else's."""
+    try:
+        text = (Path(path) / MARKER).read_text()
+    except (OSError, ValueError):
+        return False
+    return text != _marker_text() and _marker_text().startswith(text)
 
 
 # Consolidated metadata and fixed-width strings are zarr-python v3 extensions that xarray and

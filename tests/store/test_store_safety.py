@@ -136,6 +136,22 @@ def test_a_marker_that_is_not_ours_does_not_make_a_store(flags, tmp_path, capsys
     assert tree_digest(root) == before
 
 
+@pytest.mark.parametrize("kept", [0, 12], ids=["empty", "half"])
+def test_a_marker_cut_short_is_a_new_store(kept, tmp_path, capsys):
+    """A run (or a study's run) stopped by a signal while it marked its new store left the
+    marker unfinished: --resume takes the directory as a new store and completes the run,
+    as it would an empty one (seen once in ~10 suites: a SIGTERM'd study's resume refused)."""
+    root = tmp_path / "cut.zarr"
+    root.mkdir()
+    open_store(tmp_path / "whole", overwrite=False, resume=False, command="test").release()
+    whole = (tmp_path / "whole" / MARKER).read_text()
+    (root / MARKER).write_text(whole[:kept])
+    assert not is_store(root)
+    code, err = pasim(capsys, "run", TINY, "--out", str(root), "--resume")
+    assert code == 0, err
+    assert is_store(root) and run_state(root)[0]["pasim_complete"] == "true"
+
+
 def test_resume_and_overwrite_together_are_refused(tmp_path, capsys):
     root = fill(tmp_path / "project")
     before = tree_digest(root)
