@@ -40,7 +40,7 @@ from .cluster import (
 from .executor import RunOptions, chunks, merge_products
 from .fm301 import sweep_group
 from .graph import Graph
-from .interrupt import STOPPING, Stopped
+from .interrupt import STOPPING, Stopped, signals_held
 from .resources import (
     DiskFullError,
     Probe,
@@ -237,8 +237,12 @@ class DaskExecutor:
             for k, sweep in enumerate(self.sweeps)
             for b in chunks(sweep.plan.beam_count, self.options.chunk_beams)
         ]
-        lock = open_store(path, overwrite=overwrite, resume=resume, command=command)
+        lock: StoreLock | None = None
         try:
+            # A stop while the store is being taken (its lock file made, its marker written)
+            # is raised here, once the lock is ``lock``, so the handlers below undo it.
+            with signals_held():
+                lock = open_store(path, overwrite=overwrite, resume=resume, command=command)
             if lock.previous:
                 log(
                     "taking over the lock of a run that stopped early "
@@ -246,19 +250,24 @@ class DaskExecutor:
                 )
             return self._run_locked(lock, key, inputs, starts, attrs, log)
         except OSError as exc:
+            if lock is None:
+                raise
             if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
                 discard_store(lock)
                 raise
             discard_store(lock)  # only a store that holds nothing yet
             raise DiskFullError(disk_full_message(path, len(starts), self._disk_estimate)) from None
         except BaseException as exc:
+            if lock is None:
+                raise
             # Nothing computed was written yet: leave no empty store to trip the next run.
             discard_store(lock)
             # A store refused as another run's is left as it was found, lock file included.
             lock.release(restore=isinstance(exc, ResumeError))
             raise
         finally:
-            lock.release()
+            if lock is not None:
+                lock.release()
 
     def _run_locked(
         self,

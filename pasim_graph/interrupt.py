@@ -20,6 +20,13 @@ from typing import Any
 STOPPING = threading.Event()
 
 
+class _Held:
+    """Signals held in the main thread (:func:`signals_held`): how deep, and the one held."""
+
+    depth = 0
+    signum: int | None = None
+
+
 class Stopped(KeyboardInterrupt):
     """A command was asked to stop by a signal."""
 
@@ -54,10 +61,14 @@ def stop_on_signals() -> Iterator[None]:
             return
         stopping = True
         STOPPING.set()
+        if _Held.depth:
+            _Held.signum = signum  # raised when the held steps end
+            return
         raise Stopped(signum)
 
     previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
     STOPPING.clear()
+    _Held.signum = None
     try:
         yield
     finally:
@@ -65,3 +76,25 @@ def stop_on_signals() -> Iterator[None]:
             # After a stop the command is ending: later signals are ignored, not turned into
             # a KeyboardInterrupt in the middle of its last message.
             signal.signal(s, signal.SIG_IGN if stopping else h)
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Within the block, a stop signal waits: :class:`Stopped` is raised when the block ends.
+
+    For the few steps that take or give back something another process would trip on (a
+    store's lock file, between creating it and the caller's ``try`` that removes it): a stop
+    landing in the middle of them would leave it behind. The block must be short; in other
+    threads than the main one (which signals never interrupt) it changes nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    _Held.depth += 1
+    try:
+        yield
+    finally:
+        _Held.depth -= 1
+        if not _Held.depth and _Held.signum is not None:
+            signum, _Held.signum = _Held.signum, None
+            raise Stopped(signum)

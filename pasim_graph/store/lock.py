@@ -8,6 +8,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from ..interrupt import signals_held
+
 #: The lock file inside a store; its owner holds an flock on it.
 LOCK = "pasim-run.lock"
 
@@ -109,17 +111,19 @@ class StoreLock:
         import fcntl
         import os
 
-        if self._fd < 0:
-            return
-        if restore and self.previous:
-            os.ftruncate(self._fd, 0)
-            os.pwrite(self._fd, self._previous_bytes, 0)
-        else:
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(self.path)
-        fcntl.flock(self._fd, fcntl.LOCK_UN)
-        os.close(self._fd)
-        self._fd = -1
+        # A stop in the middle would leave the file behind: it is raised once this is done.
+        with signals_held():
+            if self._fd < 0:
+                return
+            if restore and self.previous:
+                os.ftruncate(self._fd, 0)
+                os.pwrite(self._fd, self._previous_bytes, 0)
+            else:
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(self.path)
+            fcntl.flock(self._fd, fcntl.LOCK_UN)
+            os.close(self._fd)
+            self._fd = -1
 
     def __enter__(self) -> StoreLock:
         return self
