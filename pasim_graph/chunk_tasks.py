@@ -127,6 +127,25 @@ def compute_local(
             pool.shutdown(wait=True, cancel_futures=True)
 
 
+def neighbours_first(todo: list[int], streams: int) -> dict[int, int]:
+    """The order (a rank from 0) in which a cluster running ``streams`` chunks at once should
+    start the chunks ``todo``: cut into ``streams`` runs of neighbouring chunks, interleaved.
+
+    The cluster gives a free slot the waiting chunk of highest priority. Without one, chunks
+    submitted together tie and start in no particular order, so a worker's chunks are spread
+    over the whole scan and every worker prepares nearly all of the truth near the beams
+    (``TruthCells`` prepares it by blocks of radials, as beams reach them). Interleaved runs
+    hand each slot, as long as the slots free up in turn, the chunk after its last one.
+    """
+    streams = max(1, min(streams, len(todo)))
+    edges = np.linspace(0, len(todo), streams + 1).round().astype(int)
+    return {
+        i: j * streams + s
+        for s in range(streams)
+        for j, i in enumerate(todo[edges[s] : edges[s + 1]])
+    }
+
+
 def compute_distributed(
     client: Any,
     sweeps: list[LocalExecutor],
@@ -165,6 +184,11 @@ def compute_distributed(
             for k in used
         }
         shared = client.submit(_given, _Box(static), key=f"{own}-static")
+    # Each chunk's priority: a run submitted earlier first (as the scheduler would order
+    # whole graphs, first come first served: a study's earlier runs finish first), and in a
+    # run a free worker takes the chunk beside its last one (neighbours_first).
+    rank = neighbours_first(todo, sum(client.nthreads().values()))
+    submitted = time.time_ns() // 1_000_000
     futures = [
         client.submit(
             run_and_write,
@@ -176,6 +200,7 @@ def compute_distributed(
             attrs,
             sweep_group(starts[i][0]),
             key=keys[i],
+            priority=-(submitted << 20) - min(rank[i], (1 << 20) - 1),
         )
         for i in todo
     ]

@@ -33,3 +33,19 @@ def test_a_chunk_task_gets_the_per_chunk_blocks_resources_only():
         merge_products(shipped.run_chunk(static, beams)),
         merge_products(executor.run_chunk(static, beams)),
     )
+
+
+def test_chunks_are_started_as_interleaved_runs_of_neighbours():
+    """Two chunk slots take 0, 5, 1, 6, ...: each the chunk after its last (the truth near a
+    beam is prepared once per worker, by blocks of radials); every chunk once."""
+    from pasim_graph.chunk_tasks import neighbours_first
+
+    todo = [3, 4, 5, 6, 7, 8, 9, 10, 11, 12]
+    rank = neighbours_first(todo, 2)
+    assert sorted(todo, key=rank.get) == [3, 8, 4, 9, 5, 10, 6, 11, 7, 12]
+    assert sorted(rank.values()) == list(range(len(todo)))
+    three = neighbours_first(list(range(7)), 3)
+    assert sorted(range(7), key=three.get) == [0, 2, 5, 1, 3, 6, 4]
+    assert len(set(three.values())) == 7
+    assert neighbours_first(todo, 1) == {i: n for n, i in enumerate(todo)}
+    assert neighbours_first([7], 16) == {7: 0}
