@@ -58,6 +58,8 @@ from pasim_graph.dask_executor import choose_chunk  # noqa: E402
 from pasim_graph.task_record import read_tasks  # noqa: E402
 
 PHASES = re.compile(r"set-up ([\d.]+) s, (\d+) of (\d+) chunks in ([\d.]+) s")
+MEASURED = re.compile(r"^measured .*: ([\d.]+) s$", re.M)
+REPORTED = re.compile(r"report\.html in ([\d.]+) s \((\d+) figures, ([\d.]+) s of drawing")
 
 
 def timed(cmd: list[str], env: dict[str, str]) -> dict[str, Any]:
@@ -156,7 +158,17 @@ def study_run(args: argparse.Namespace, workers: int, build: str, pythonpath: st
         cmd = [python(args, build), "-m", "pasim_graph", "study", str(study), "--out", str(out)]
         cmd += ["--workers", str(workers)]
         m = timed(cmd, environment(pythonpath))
-        m.pop("stderr")
+        err = m.pop("stderr")
+        # Work done as cluster tasks beside the runs' chunks: the measurements (their seconds
+        # on their workers) and, after the runs, the report's figures.
+        m["measure_s"] = sum(float(x) for x in MEASURED.findall(err))
+        report = REPORTED.search(err)
+        if report:
+            m["report_s"], m["figures"], m["figures_s"] = (
+                float(report[1]),
+                int(report[2]),
+                float(report[3]),
+            )
         records = []
         for store in sorted((out / "runs").rglob("*.zarr")):
             try:
@@ -262,27 +274,66 @@ def predict(model: dict, workers: int, cores: int | None = None) -> dict:
 
 
 def study_model(row: dict) -> dict:
-    """The study at one worker: its work (every run's set-up steps and chunk tasks, wall
-    time), the rest (start-up, pattern and hardware measurements, the report: one after
-    another) and the CPU that ran beside the work (the workers' tasks and the ``pasim``
-    process's own share: set-up, scoring, the scheduler)."""
-    work = 0.0
+    """The study at one worker: its work (every run's set-up steps and chunk tasks, and the
+    antenna and hardware measurements, tasks beside them: wall time), the report's figures
+    (tasks too, once the runs are done), the rest (start-up, scoring, the report's page: one
+    after another), the CPU that ran beside the work (the workers' tasks and the ``pasim``
+    process's own share: set-up, scoring, the scheduler), and each run's beams and first use
+    (its first chunk beyond a typical one: the run's prepared inputs, which every further
+    worker it reaches prepares again)."""
+    work = row.get("measure_s", 0.0)
+    runs = []
     for r in row["records"]:
         # The set-up steps; not the cluster's connection (shared) nor the chunk phase, whose
         # tasks are counted one by one below.
         setup = [s for s in r["steps"] if s["kind"] not in ("connect", "chunks")]
         work += sum(s["stop"] - s["start"] for s in setup)
-        work += sum(t["stop"] - t["start"] for t in r["tasks"])
-    rest = max(row["wall_s"] - work, 0.0)
-    return {"work_s": work, "rest_s": rest, "beside_cpu_s": max(row["cpu_s"] - rest, 0.0)}
+        tasks = sorted(r["tasks"], key=lambda t: t["start"])
+        spans = [t["stop"] - t["start"] for t in tasks]
+        work += sum(spans)
+        first = max(spans[0] - statistics.median(spans[1:]), 0.0) if len(spans) > 1 else 0.0
+        beams = sum(t["beams"][1] - t["beams"][0] for t in tasks if "beams" in t)
+        runs.append((beams, first))
+    figures_s = row.get("figures_s", 0.0)
+    rest = max(row["wall_s"] - work - figures_s, 0.0)
+    return {
+        "work_s": work,
+        "figures_s": figures_s,
+        "figures": row.get("figures", 0),
+        "rest_s": rest,
+        "beside_cpu_s": max(row["cpu_s"] - rest - figures_s, 0.0),
+        "runs": runs,
+    }
+
+
+def first_uses(model: dict, workers: int) -> float:
+    """The first uses paid again on ``workers``: each run's on every further worker its
+    chunks reach (as many as it has chunks, chosen for that many workers)."""
+    extra = 0.0
+    for beams, first in model.get("runs", []):
+        if beams:
+            chunks = -(-beams // choose_chunk(beams, workers))
+            extra += (min(workers, chunks) - 1) * first
+    return extra
 
 
 def predict_study(model: dict, workers: int, cores: int | None = None) -> float:
-    """Runs overlapped: the rest one after another, then the work spread over the workers,
-    but never faster than the cores can give the CPU that runs beside it (``cores``: the
-    machine's; one a worker when not given)."""
+    """Runs overlapped: the rest one after another, the work spread over the workers with the
+    first uses they pay again (but never faster than the cores can give the CPU that runs
+    beside it; ``cores``: the machine's, one a worker when not given), then the report's
+    figures spread over them."""
     cores = cores or workers
-    return model["rest_s"] + max(model["work_s"] / workers, model["beside_cpu_s"] / cores)
+    again = first_uses(model, workers)
+    figures = model.get("figures_s", 0.0) / max(1, min(workers, model.get("figures", 1) or 1))
+    work = max((model["work_s"] + again) / workers, (model["beside_cpu_s"] + again) / cores)
+    return model["rest_s"] + work + figures
+
+
+def study_busy(model: dict, workers: int) -> float:
+    """The share of ``workers`` cores (a core each) busy over the predicted study: the CPU
+    measured on one worker, with the first uses paid again."""
+    cpu = model["rest_s"] + model["figures_s"] + model["beside_cpu_s"] + first_uses(model, workers)
+    return cpu / (workers * predict_study(model, workers))
 
 
 def model_checks(rows: list[dict], case: str, predicted) -> list[dict]:
@@ -387,6 +438,7 @@ def main() -> int:
         cores = os.cpu_count() or 1
         checks += model_checks(rows, "study", lambda w: predict_study(smodel, w, cores))
         summary["study_predicted"] = {w: predict_study(smodel, w) for w in (16, 64, 256, 1000)}
+        summary["study_predicted_busy"] = {w: study_busy(smodel, w) for w in (16, 64, 256, 1000)}
     summary["checks"] = checks
     digests = {r["digest"] for r in rows if r["case"] == "graph"}
     summary["graph_stores_identical"] = len(digests) == 1 if digests else None

@@ -179,15 +179,21 @@ class StudyCommand:
 
         print(f"study {args.study}: {len(runs)} runs into {out}", file=sys.stderr)
         started = time.monotonic()
+        cluster: Any = None
+        report: dict | None = None
         try:
             with stop_on_signals():
+                if args.workers and client is None and not args.no_report:
+                    # The study's cluster made here, not by execute, so that it outlives the
+                    # runs: the report's figures are drawn on it.
+                    client, cluster = open_client(args.workers, None)
                 report = execute(
                     study,
                     runs,
                     out,
                     state,
                     workers=args.workers,
-                    scheduler=args.scheduler,
+                    scheduler=cluster.scheduler_address if cluster is not None else args.scheduler,
                     progress=args.progress,
                     after_run=after_run,
                     client=client,
@@ -213,7 +219,30 @@ class StudyCommand:
         ) as exc:
             raise UserError(str(exc)) from None
         finally:
-            _close(client)
+            if report is None:
+                _close(client, cluster)
+        try:
+            self._finish(args, out, report, rescore, warn_unscored, client)
+        finally:
+            _close(client, cluster)
+        return 0
+
+    def _finish(
+        self,
+        args: argparse.Namespace,
+        out: Path,
+        report: dict,
+        rescore: Any,
+        warn_unscored: Any,
+        client: Any,
+    ) -> None:
+        """The study's last scores, its summary line and its report (drawn on ``client``'s
+        cluster when there is one)."""
+        from pasim_graph.command_api import UserError
+        from pasim_graph.store import NotAStoreError
+
+        from ..study.runner import StudyError
+
         try:
             rescore()
         except (StudyError, NotAStoreError) as exc:
@@ -230,11 +259,17 @@ class StudyCommand:
                 f"no report (--no-report): pasim study {out} --report-only draws it",
                 file=sys.stderr,
             )
-            return 0
-        from ..study.report import write_report
+            return
+        from ..study.report import Drawing, write_report
 
-        print(f"wrote {write_report(out)}", file=sys.stderr)
-        return 0
+        t0, drawing = time.perf_counter(), Drawing(client)
+        path = write_report(out, drawing)
+        where = " on the cluster" if client is not None else ""
+        print(
+            f"wrote {path} in {time.perf_counter() - t0:.1f} s ({drawing.count} figures, "
+            f"{drawing.seconds:.1f} s of drawing{where})",
+            file=sys.stderr,
+        )
 
     def report_only(self, args: argparse.Namespace) -> int:
         from pasim_graph.command_api import UserError
@@ -256,9 +291,11 @@ class StudyCommand:
         return 0
 
 
-def _close(client: Any) -> None:
+def _close(client: Any, cluster: Any = None) -> None:
     if client is not None:
         client.close()
+    if cluster is not None:
+        cluster.close()
 
 
 COMMAND = StudyCommand()

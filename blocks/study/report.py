@@ -11,7 +11,10 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -422,10 +425,10 @@ def ppi_figure(name: str, panels: list[tuple[str, Any]]) -> Figure:
     )
 
 
-def ppi_figures(panels: list[tuple[str, Any]], notes: list[str], case: str = "") -> list[Figure]:
-    """The per-moment PPI figures of a case: a moment the truth does not hold (no system's
-    store has its ``truth_`` field, e.g. velocity of a reflectivity-only file, ZDR of a
-    single-polarisation truth) gets no panels, and a note says so."""
+def ppi_fields(panels: list[tuple[str, Any]], notes: list[str], case: str = "") -> list[str]:
+    """The moments of a case that get a PPI figure: a moment the truth does not hold (no
+    system's store has its ``truth_`` field, e.g. velocity of a reflectivity-only file, ZDR
+    of a single-polarisation truth) gets no panels, and a note says so."""
     if not panels:
         return []
     drawn = [n for n in FIELDS if any(f"truth_{n}" in s for _, s in panels)]
@@ -436,7 +439,56 @@ def ppi_figures(panels: list[tuple[str, Any]], notes: list[str], case: str = "")
             f"{where}no PPI panels for {', '.join(skipped)}: no run scored them against a "
             "truth (the truth does not hold them, or no system estimates them)"
         )
-    return [ppi_figure(n, panels) for n in drawn]
+    return drawn
+
+
+def ppi_figures(panels: list[tuple[str, Any]], notes: list[str], case: str = "") -> list[Figure]:
+    """The per-moment PPI figures of a case (:func:`ppi_fields`), drawn here."""
+    return [ppi_figure(n, panels) for n in ppi_fields(panels, notes, case)]
+
+
+#: matplotlib is not thread-safe: a worker running several tasks at once in threads draws
+#: one figure at a time (a LocalCluster's workers have one thread each).
+_ONE_AT_A_TIME = threading.Lock()
+
+
+def _drawn_alone(draw: Callable[..., Figure | None], *args: Any) -> tuple[Figure | None, float]:
+    """``draw(*args)`` and the seconds it took, one figure at a time in this process."""
+    with _ONE_AT_A_TIME:
+        t0 = time.perf_counter()
+        return draw(*args), time.perf_counter() - t0
+
+
+class Drawing:
+    """Where the report's figures are drawn: here, one after another, or with ``client`` as
+    tasks on the study's cluster, all at once (rendering them is most of a report's time:
+    6 s of the paper study's, one after another). :meth:`drawn` gives a list back drawn,
+    in its order, without the figures that had nothing to show (None)."""
+
+    def __init__(self, client: Any = None):
+        self.client = client
+        #: Figures drawn, and the seconds they took where they were drawn (all together).
+        self.count, self.seconds = 0, 0.0
+        # Keys of this report's own: another study's report may draw on the same cluster.
+        self._token, self._asked = os.urandom(6).hex(), 0
+
+    def __call__(self, draw: Callable[..., Figure | None], *args: Any) -> Any:
+        self._asked += 1
+        if self.client is None:
+            figure, seconds = _drawn_alone(draw, *args)
+            self.seconds += seconds
+            return figure
+        key = f"pasim-figure-{draw.__name__}-{self._token}-{self._asked}"
+        return self.client.submit(_drawn_alone, draw, *args, key=key)
+
+    def drawn(self, figures: list[Any]) -> list[Figure]:
+        if self.client is not None:
+            timed = self.client.gather(figures)
+            self.seconds += sum(seconds for _, seconds in timed)
+            figures = [figure for figure, _ in timed]
+        drawn = [f for f in figures if f is not None]
+        self.count += len(drawn)
+        return drawn
 
 
 def histogram_figure(panels: list[tuple[str, Any]]) -> Figure:
@@ -487,8 +539,9 @@ def histogram_figure(panels: list[tuple[str, Any]]) -> Figure:
     )
 
 
-def build(out: Path) -> dict[str, Any]:
-    """Everything the template shows, figures drawn."""
+def build(out: Path, draw: Drawing | None = None) -> dict[str, Any]:
+    """Everything the template shows, figures drawn (by ``draw``: here by default)."""
+    draw = draw or Drawing()
     from pasim_graph import __version__
 
     manifest, scores = load(out)
@@ -508,8 +561,7 @@ def build(out: Path) -> dict[str, Any]:
         rep.products = summary_rows(scores, systems, case, product_names(scores, systems, case))
         rep.rankings = _rankings(scores, case)
         rep.budget_rows = _budget_rows(scores, systems, case)
-        fig = budget_figure(scores, systems, case)
-        rep.figures["budget"] = [fig] if fig else []
+        rep.figures["budget"] = [draw(budget_figure, scores, systems, case)]
         panels: list[tuple[str, Any]] = []
         for system in systems:
             pts = list(scores[system].get(case, {}))
@@ -525,23 +577,25 @@ def build(out: Path) -> dict[str, Any]:
             graphs.setdefault(system, str(root.get("graph", "")))
             versions.add(str(root.get("pasim_graph_version", "?")))
             panels.append((system if point == "-" else f"{system} ({point})", sweep))
-        rep.figures["ppi"] = ppi_figures(panels, notes, case)
-        rep.figures["hist"] = [histogram_figure(panels)] if panels else []
+        rep.figures["ppi"] = [draw(ppi_figure, n, panels) for n in ppi_fields(panels, notes, case)]
+        rep.figures["hist"] = [draw(histogram_figure, panels)] if panels else []
         rep.figures["sweeps"] = [
-            f
+            draw(figure, scores, s, case)
             for s in systems
-            for f in (sweep_figure(scores, s, case), sidelobe_figure(scores, s, case))
-            if f is not None
+            for figure in (sweep_figure, sidelobe_figure)
         ]
         rep.sweep_verdicts = {s: v for s in systems if (v := sweep_verdicts(scores, s, case))}
         rep.calibration_rows = calibration_rows(scores, systems, case)
         rep.figures["calibration"] = [
-            calibration_figure(s, cal)
+            draw(calibration_figure, s, cal)
             for s in systems
             if (cal := (scores[s].get(case, {}).get("-", {}).get("ZDR") or {}).get("calibration"))
         ]
     hardware = manifest.get("hardware", {})
     hardware_systems = [s for s in systems if s in hardware]
+    hardware_figures = [draw(hardware_figure, s, hardware[s]) for s in hardware_systems]
+    for rep in cases.values():
+        rep.figures = {k: draw.drawn(v) for k, v in rep.figures.items()}
     runs = [
         {"key": k, "kind": v.get("kind", ""), "seconds": v.get("seconds")}
         for k, v in manifest.get("runs", {}).items()
@@ -565,7 +619,7 @@ def build(out: Path) -> dict[str, Any]:
         "beamwidths": meta.get("beamwidths_deg", {}),
         "hardware_systems": hardware_systems,
         "hardware_rows": hardware_table(hardware, hardware_systems),
-        "hardware_figures": [hardware_figure(s, hardware[s]) for s in hardware_systems],
+        "hardware_figures": draw.drawn(hardware_figures),
         "written": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
     }
 
@@ -583,10 +637,11 @@ def render(context: dict[str, Any]) -> str:
     return env.get_template("report.html.j2").render(**context)
 
 
-def write_report(out: str | Path) -> Path:
-    """Draw and write ``out/report.html`` from a study folder; returns its path."""
+def write_report(out: str | Path, drawing: Drawing | None = None) -> Path:
+    """Draw and write ``out/report.html`` from a study folder; returns its path. ``drawing``:
+    where the figures are drawn (here by default; on a cluster with ``Drawing(client)``)."""
     out = Path(out)
-    html = render(build(out))
+    html = render(build(out, drawing))
     path = out / REPORT
     write_atomic(path, html)
     return path

@@ -19,6 +19,7 @@ from typing import Any
 
 from pasim_graph.outputs import write_atomic
 
+from .measuring import Measuring
 from .model import Study
 from .plan import Run
 
@@ -243,8 +244,7 @@ def ensure_patterns(
     study: Study,
     runs: list[Run],
     out: Path,
-    state: dict[str, Any],
-    log: Callable[[str], None],
+    measuring: Measuring,
     pending: frozenset[str] = frozenset(),
 ) -> None:
     """Measure the antenna figures (:mod:`.patterns`) of every system, case and point whose
@@ -255,54 +255,63 @@ def ensure_patterns(
 
     from .patterns import point_patterns
 
-    patterns = state.setdefault("patterns", {})
     cases = {c.name: c for c in study.cases}
     for run in runs:
         bkey = f"{run.system}/{run.case}/{run.point_name}"
-        if run.kind != "estimate" or run.seed != study.seeds[0] or bkey in patterns:
+        if run.kind != "estimate" or run.seed != study.seeds[0]:
+            continue
+        if not measuring.wanted("patterns", bkey):
             continue
         path = out / "runs" / run.key
         if run.key in pending or not finished(path):
             continue
         sweep, _ = open_sweep(path)
-        t0 = time.perf_counter()
-        patterns[bkey] = point_patterns(
-            run.graph(), sweep["azimuth"].values, cases[run.case].elevation, run.seed
+        azimuth = sweep["azimuth"].values
+        elevation = cases[run.case].elevation
+        what = f"the antenna of {bkey}"
+        measuring.start(
+            "patterns", bkey, what, point_patterns, run.graph(), azimuth, elevation, run.seed
         )
-        save(out, state)
-        log(f"measured the antenna of {bkey}: {time.perf_counter() - t0:.1f} s")
-    ensure_hardware(study, runs, out, state, log, pending)
+    ensure_hardware(study, runs, out, measuring, pending)
 
 
 def ensure_hardware(
     study: Study,
     runs: list[Run],
     out: Path,
-    state: dict[str, Any],
-    log: Callable[[str], None],
+    measuring: Measuring,
     pending: frozenset[str] = frozenset(),
 ) -> None:
     """Measure each system's pattern, waveform and spectrum (:mod:`.hardware`) once, from its
     first finished estimate (the first case, unswept where it has such a point): kept in the
     manifest under ``hardware``."""
-    from .hardware import sector_middle, system_hardware
+    from .hardware import sector_middle
 
-    hardware = state.setdefault("hardware", {})
     cases = {c.name: c for c in study.cases}
     for run in sorted(runs, key=lambda r: r.point_name != "-"):
-        if run.kind != "estimate" or run.seed != study.seeds[0] or run.system in hardware:
+        if run.kind != "estimate" or run.seed != study.seeds[0]:
+            continue
+        if not measuring.wanted("hardware", run.system):
             continue
         if run.key in pending or not finished(out / "runs" / run.key):
             continue
         case = cases[run.case]
-        t0 = time.perf_counter()
-        hardware[run.system] = {
-            "case": run.case,
-            "point": run.point_name,
-            **system_hardware(run.graph(), sector_middle(case.sector), case.elevation, run.seed),
-        }
-        save(out, state)
-        log(f"measured the hardware of {run.system}: {time.perf_counter() - t0:.1f} s")
+        args = (run.case, run.point_name, run.graph(), sector_middle(case.sector), case.elevation)
+        what = f"the hardware of {run.system}"
+        measuring.start("hardware", run.system, what, hardware_record, *args, run.seed)
+
+
+def hardware_record(
+    case: str, point: str, graph: Any, azimuth_deg: float, elevation_deg: float, seed: int
+) -> dict[str, Any]:
+    """A system's hardware as the manifest keeps it: where it was measured, and the parts."""
+    from .hardware import system_hardware
+
+    return {
+        "case": case,
+        "point": point,
+        **system_hardware(graph, azimuth_deg, elevation_deg, seed),
+    }
 
 
 def beamwidth(study: Study, run: Run, runs: list[Run], state: dict[str, Any]) -> float | None:
@@ -379,8 +388,10 @@ def execute(
     thread, and every run uses it: no run makes, warms up or closes a client of its own. One
     client per run, made from the runs' threads at once, was seen to hang a study (8 runs
     laid out, none of them sending its inputs to the cluster, for 19 min). ``client``: one
-    already connected to ``scheduler`` (the command's, which checked the shared storage on
-    it), used instead and left open.
+    already connected to ``scheduler`` (the command's: to an external scheduler, whose
+    shared storage it checked, or to the LocalCluster it keeps to draw the report on), used
+    instead and left open. With a cluster, the antenna and hardware measurements are tasks on
+    it too (:mod:`.measuring`).
     """
     from pasim_graph.cluster import LOCAL_SCHEDULERS, open_client, warm_up_workers
     from pasim_graph.dask_executor import DaskExecutor
@@ -399,7 +410,8 @@ def execute(
     kept = len(runs) - len(todo)
     if kept:
         log(f"keeping {kept} finished run(s) of {len(runs)}")
-    ensure_patterns(study, runs, out, state, log)
+    measuring = Measuring(state, lambda: save(out, state), log)
+    ensure_patterns(study, runs, out, measuring)
     computed = 0
     pending = [r.key for r in todo]  # not yet recorded: the study's order
 
@@ -445,17 +457,21 @@ def execute(
         elapsed = time.perf_counter() - t_start
         left = elapsed / computed * (len(todo) - computed)
         log(f"[{kept + computed}/{len(runs)}] {run.key}: {dt:.1f} s; about {left:.0f} s left")
-        ensure_patterns(study, runs, out, state, log, frozenset(pending[computed:]))
+        measuring.gather()
+        ensure_patterns(study, runs, out, measuring, frozenset(pending[computed:]))
         after_run()
 
     if todo and not given and (workers or scheduler not in (None, *LOCAL_SCHEDULERS)):
         client, cluster = open_client(workers, scheduler)
         if cluster is not None:
             scheduler = cluster.scheduler_address
+    measuring.client = client
     try:
         limit = at_once if at_once is not None else runs_at_once(client)
         in_order(todo, start, record, limit, lambda: memory_available() >= RUN_MEMORY)
+        measuring.gather(wait=True)
     finally:
+        measuring.drop()
         if client is not None and not given:
             client.close()
         if cluster is not None:

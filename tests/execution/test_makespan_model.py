@@ -86,5 +86,63 @@ def test_the_study_model_counts_set_up_steps_and_tasks_once(bench):
         "tasks": [{"start": 3.0 + 2 * i, "stop": 5.0 + 2 * i} for i in range(3)],
     }
     model = bench.study_model({"records": [run, run], "wall_s": 20.0, "cpu_s": 30.0})
-    assert model == {"work_s": 16.0, "rest_s": 4.0, "beside_cpu_s": 26.0}
+    assert model == {
+        "work_s": 16.0,
+        "figures_s": 0.0,
+        "figures": 0,
+        "rest_s": 4.0,
+        "beside_cpu_s": 26.0,
+        "runs": [(0, 0.0), (0, 0.0)],  # no beams recorded, and no first use
+    }
     assert bench.predict_study(model, 2, 2) == 17.0
+
+
+def test_a_run_reaching_more_workers_pays_its_first_use_on_each(bench):
+    """A run of 90 beams in 9 chunks whose first took 1 s more than the others (its prepared
+    inputs): on 4 workers its chunks (as many as the chunking chosen for 4 gives, at least 4)
+    reach every worker, 3 of which pay that second again; on 1000 they reach as many workers
+    as there are chunks. The CPU grows by as much, and the busy share counts it."""
+    run = {
+        "steps": [],
+        "tasks": [
+            {
+                "start": 2.0 * i,
+                "stop": 2.0 * i + (3.0 if i == 0 else 2.0),
+                "beams": [10 * i, 10 * i + 10],
+            }
+            for i in range(9)
+        ],
+    }
+    model = bench.study_model({"records": [run], "wall_s": 20.0, "cpu_s": 20.0})
+    assert model["runs"] == [(90, 1.0)]
+    assert bench.first_uses(model, 1) == 0.0
+    assert bench.first_uses(model, 4) == 3.0
+    chunks = -(-90 // bench.choose_chunk(90, 1000))
+    assert bench.first_uses(model, 1000) == chunks - 1
+    # Work 19 s (1 s rest); on 4 workers: 1 + max(19 + 3, 19 + 3) / 4.
+    assert bench.predict_study(model, 4) == pytest.approx(1.0 + 22.0 / 4)
+    assert bench.study_busy(model, 4) == pytest.approx((20.0 + 3.0) / (4 * (1.0 + 22.0 / 4)))
+
+
+def test_the_study_model_spreads_measurements_and_figures(bench):
+    """Two runs of 0.5 s of set-up and 3 x 2 s of tasks, 2 s of antenna measurements (tasks
+    beside the runs: work) and a report of 3 figures drawn in 3 s (tasks after the runs), in
+    25 s of wall and 35 s of CPU: work 2 x 6.5 + 2 = 15, rest 25 - 15 - 3 = 7, beside
+    35 - 7 - 3 = 25. On 2 workers and cores: 7 + max(7.5, 12.5) + 3 / 2; on 16, a core each:
+    7 + 25 / 16 + 3 / 3 (no more than one worker a figure)."""
+    run = {
+        "steps": [{"kind": "load", "start": 0.0, "stop": 0.5}],
+        "tasks": [{"start": 3.0 + 2 * i, "stop": 5.0 + 2 * i} for i in range(3)],
+    }
+    row = {"records": [run, run], "wall_s": 25.0, "cpu_s": 35.0, "measure_s": 2.0}
+    model = bench.study_model({**row, "figures": 3, "figures_s": 3.0})
+    assert model["work_s"] == 15.0 and model["rest_s"] == 7.0 and model["beside_cpu_s"] == 25.0
+    assert bench.predict_study(model, 2, 2) == pytest.approx(7.0 + 12.5 + 1.5)
+    assert bench.predict_study(model, 16) == pytest.approx(7.0 + 25.0 / 16 + 1.0)
+    # The report line and the measurement lines the study prints are what the benchmark reads.
+    err = (
+        "measured the antenna of a/b/-: 1.5 s\nmeasured the hardware of a: 0.5 s\n"
+        "wrote /x/report.html in 4.2 s (15 figures, 5.6 s of drawing on the cluster)\n"
+    )
+    assert sum(float(x) for x in bench.MEASURED.findall(err)) == 2.0
+    assert bench.REPORTED.search(err).groups() == ("4.2", "15", "5.6")

@@ -1,0 +1,74 @@
+"""The study's antenna and hardware measurements, beside its runs.
+
+Each system's pattern figures (:mod:`.patterns`) and hardware (:mod:`.hardware`) are measured
+once, when its first estimate has finished: seconds of computing per system (the 10 m CPPAR's
+5 s), done in the calling thread, one after another, while no further run could start there.
+With a cluster they are tasks on it instead, in parallel with each other and with the runs'
+chunks (a task without a priority goes before the chunks: a measurement is on the study's
+critical path, a chunk is one of many); their results are kept in the manifest as they come,
+and every one is in before the study's runs are reported done. Without a cluster they run here
+as before. The functions are pure, seeded by the run: the same figures either way.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from typing import Any
+
+
+class Measuring:
+    """Measurements started here or on ``client``'s cluster, kept in ``state[part][key]``."""
+
+    def __init__(self, state: dict[str, Any], keep: Callable[[], None], log: Callable[[str], None]):
+        self.state, self.keep, self.log = state, keep, log
+        self.client: Any = None
+        # (part, key) -> (future, what), for those on the cluster
+        self._flight: dict[tuple[str, str], tuple[Any, str]] = {}
+
+    def wanted(self, part: str, key: str) -> bool:
+        """Neither measured nor being measured."""
+        return key not in self.state.setdefault(part, {}) and (part, key) not in self._flight
+
+    def start(
+        self, part: str, key: str, what: str, measure: Callable[..., dict], *args: Any
+    ) -> None:
+        """Measure ``measure(*args)`` into ``state[part][key]``: now, or as a cluster task
+        (``what`` names it in the log line)."""
+        if self.client is None:
+            self._done(part, key, what, *timed(measure, *args))
+            return
+        # A key of this study's own (another study on the cluster may measure the same names).
+        token = os.urandom(6).hex()
+        future = self.client.submit(
+            timed, measure, *args, key=f"pasim-measure-{part}-{key}-{token}"
+        )
+        self._flight[(part, key)] = (future, what)
+
+    def gather(self, wait: bool = False) -> None:
+        """Keep the measurements that have ended (with ``wait``, every one: a failure is
+        raised here, as it would have been in the calling thread)."""
+        for (part, key), (future, what) in list(self._flight.items()):
+            if wait or future.done():
+                value, seconds = future.result()
+                del self._flight[(part, key)]
+                self._done(part, key, what, value, seconds)
+
+    def drop(self) -> None:
+        """Forget the measurements in flight (the study stops: a resume measures them)."""
+        for future, _ in self._flight.values():
+            future.release()
+        self._flight.clear()
+
+    def _done(self, part: str, key: str, what: str, value: dict, seconds: float) -> None:
+        self.state.setdefault(part, {})[key] = value
+        self.keep()
+        self.log(f"measured {what}: {seconds:.1f} s")
+
+
+def timed(measure: Callable[..., dict], *args: Any) -> tuple[dict, float]:
+    """``measure(*args)`` and the seconds it took where it ran (not counting its wait in the
+    cluster's queue, nor the study's wait for it)."""
+    t0 = time.perf_counter()
+    return measure(*args), time.perf_counter() - t0

@@ -1,0 +1,90 @@
+"""The study's antenna and hardware measurements as tasks on its cluster (blocks.study.measuring):
+the same figures as measured in the study's own process, kept as they come, every one in
+by the end; a failure is raised where the study waits for it."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from pasim_blocks.study.measuring import Measuring
+from pasim_blocks.study.model import read_study
+from pasim_blocks.study.plan import plan_runs
+from pasim_blocks.study.runner import ensure_patterns
+
+from ..conftest import TINY_STUDY
+
+
+@pytest.fixture(scope="module")
+def client():
+    distributed = pytest.importorskip("distributed")
+    with distributed.Client(
+        processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None
+    ) as c:
+        yield c
+
+
+def _fail(x: int) -> dict:
+    raise ValueError(f"no pattern for {x}")
+
+
+def test_measured_on_the_cluster_as_in_the_study(tmp_path, client, tiny_study):
+    """Both systems' patterns and hardware measured as cluster tasks from the tiny study's
+    finished runs: what the serial study (the tiny_study fixture, measured in its own
+    process) kept in its manifest, to the last digit (as JSON)."""
+    import shutil
+
+    shutil.copytree(tiny_study / "runs", tmp_path / "runs")
+    runs, problems = plan_runs(read_study(TINY_STUDY))
+    assert not problems
+    state: dict = {}
+    lines: list[str] = []
+    saved: list[int] = []
+    measuring = Measuring(state, lambda: saved.append(1), lines.append)
+    measuring.client = client
+    ensure_patterns(read_study(TINY_STUDY), runs, tmp_path, measuring)
+    assert not state.get("patterns") and not state.get("hardware")  # sent, not measured here
+    assert not measuring.wanted("patterns", "narrow/convective/-")  # in flight: not twice
+    measuring.gather(wait=True)
+    serial = json.loads((tiny_study / "pasim-study.json").read_text())
+    for part in ("patterns", "hardware"):
+        assert json.loads(json.dumps(state[part])) == serial[part], part
+    assert sorted(line.rsplit(": ", 1)[0] for line in lines) == [
+        "measured the antenna of narrow/convective/-",
+        "measured the antenna of wide/convective/-",
+        "measured the hardware of narrow",
+        "measured the hardware of wide",
+    ]
+    assert all(line.endswith(" s") for line in lines), lines
+    assert len(lines) == 4 and len(saved) == 4
+
+
+def test_a_failed_measurement_is_raised_where_the_study_waits(client):
+    state: dict = {}
+    measuring = Measuring(state, lambda: None, lambda s: None)
+    measuring.client = client
+    measuring.start("patterns", "a/b/-", "the antenna of a/b/-", _fail, 3)
+    with pytest.raises(ValueError, match="no pattern for 3"):
+        measuring.gather(wait=True)
+    assert "a/b/-" not in state.get("patterns", {})
+
+
+def test_the_report_drawn_on_the_cluster_is_the_report_drawn_here(client, tiny_study):
+    """Every figure of the tiny study's report drawn as cluster tasks (two worker threads:
+    one figure at a time per worker process) is the one drawn here, byte for byte, in the
+    same place."""
+    from pasim_blocks.study.report import Drawing, build
+
+    here, there = build(tiny_study), build(tiny_study, Drawing(client))
+
+    def figures(context: dict) -> list:
+        out = [("hardware", f.title, f.uri) for f in context["hardware_figures"]]
+        for case in context["cases"]:
+            for kind, figs in case.figures.items():
+                out += [(case.name, kind, f.title, f.uri) for f in figs]
+        return out
+
+    assert len(figures(here)) >= 8
+    assert figures(there) == figures(here)
+    assert [c.name for c in there["cases"]] == [c.name for c in here["cases"]]
+    assert there["notes"] == here["notes"]
