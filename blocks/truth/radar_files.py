@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from pasim_graph.fm301 import rhi_mode
+from pasim_graph.fm301 import rhi_mode, sweep_names
 
 from . import sizes
 from .field_names import ALIASES, field_map, mapping_hint, unknown_names
@@ -120,7 +120,7 @@ def open_radar_file(path: str | Path) -> tuple[Any, str]:
             tree = xr.open_datatree(path, engine="zarr")  # lazy but for index coordinates
         except Exception as exc:
             raise ValueError(f"{path}: a folder, but not a CfRadial 2 Zarr store ({exc})") from None
-        sweeps = [str(c) for c in tree.children if str(c).startswith("sweep_")]
+        sweeps = sweep_names(tree)
         sizes.check_tree(f"{path} (CfRadial 2)", [(s, tree[s].to_dataset()) for s in sweeps])
         return tree, "CfRadial 2 (Zarr)"
     tried: list[str] = []
@@ -143,7 +143,7 @@ def open_radar_file(path: str | Path) -> tuple[Any, str]:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
                     tree = opener(str(plain))
-                    sweeps = [str(c) for c in tree.children if str(c).startswith("sweep_")]
+                    sweeps = sweep_names(tree)
                     if not sweeps:
                         raise ValueError("no sweep in it")
                     sizes.check_tree(
