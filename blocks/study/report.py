@@ -544,6 +544,9 @@ def build(out: Path, draw: Drawing | None = None) -> dict[str, Any]:
     draw = draw or Drawing()
     from pasim_graph import __version__
 
+    # The stores' sweeps travel to the figures' tasks as lazy arrays naming their files: from
+    # a worker started in another folder, a relative path would name nothing.
+    out = out.absolute()
     manifest, scores = load(out)
     meta = scores.get("_study", {})
     systems = _systems(scores)
