@@ -260,7 +260,8 @@ class StudyCommand:
                 file=sys.stderr,
             )
             return
-        from ..study.report import Drawing, write_report
+        from ..study.figures import Drawing
+        from ..study.report import write_report
 
         t0, drawing = time.perf_counter(), Drawing(client)
         path = write_report(out, drawing)

@@ -84,9 +84,10 @@ def test_plot_marks_the_rows_without_truth(store, tmp_path, capsys):
 
 
 def test_study_report_draws_no_panels_for_moments_without_truth(store):
-    from pasim_blocks.study.report import ppi_figures
+    from pasim_blocks.study.panel_figures import ppi_fields, ppi_figure
 
     notes: list[str] = []
-    figures = ppi_figures([("generic", sweep_of(store))], notes, "rainbow")
+    panels = [("generic", sweep_of(store))]
+    figures = [ppi_figure(n, panels) for n in ppi_fields(panels, notes, "rainbow")]
     assert [f.title.split(":")[0] for f in figures] == ["DBZH"]
     assert len(notes) == 1 and all(n in notes[0] for n in WITHOUT)

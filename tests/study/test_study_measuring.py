@@ -73,7 +73,8 @@ def test_the_report_drawn_on_the_cluster_is_the_report_drawn_here(client, tiny_s
     """Every figure of the tiny study's report drawn as cluster tasks (two worker threads:
     one figure at a time per worker process) is the one drawn here, byte for byte, in the
     same place."""
-    from pasim_blocks.study.report import Drawing, build
+    from pasim_blocks.study.figures import Drawing
+    from pasim_blocks.study.report import build
 
     here, there = build(tiny_study), build(tiny_study, Drawing(client))
 
