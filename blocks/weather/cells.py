@@ -310,25 +310,25 @@ class TruthCells:
             )
         self._done = np.zeros(-(-shape[0] // self.BLOCK_ROWS), bool)
         self._lock = threading.Lock()
+        # Zero until their radials are prepared (all at once below where a cell depends on
+        # others); pages never touched cost nothing.
+        self.s_h: np.ndarray = np.zeros(shape)
+        self.s_v: np.ndarray = np.zeros(shape)
+        self.u: np.ndarray = np.zeros(shape)
+        self.rho: np.ndarray = np.zeros(shape)
+        self.r1_h: np.ndarray = np.zeros(shape, np.complex128)
+        self.r1_v: np.ndarray = np.zeros(shape, np.complex128)
+        self.cross: np.ndarray = np.zeros(shape, np.complex128)
+        self.phase_dp: np.ndarray = np.zeros(shape, np.complex128)
+        self._lags: np.ndarray = np.zeros((2, *shape), np.complex128)
+        self.field: dict[str, np.ndarray] = {k: np.zeros(shape) for k in FILL}
         codes = None
-        if sizes is None and method != "combined":
-            # Zero until their radials are prepared; pages never touched cost nothing.
-            self.s_h: np.ndarray = np.zeros(shape)
-            self.s_v: np.ndarray = np.zeros(shape)
-            self.u: np.ndarray = np.zeros(shape)
-            self.rho: np.ndarray = np.zeros(shape)
-            self.r1_h: np.ndarray = np.zeros(shape, np.complex128)
-            self.r1_v: np.ndarray = np.zeros(shape, np.complex128)
-            self.cross: np.ndarray = np.zeros(shape, np.complex128)
-            self.phase_dp: np.ndarray = np.zeros(shape, np.complex128)
-            self._lags: np.ndarray = np.zeros((2, *shape), np.complex128)
-            self.field: dict[str, np.ndarray] = {k: np.zeros(shape) for k in FILL}
-        else:
-            self.field = {k: self._field(k, slice(None)) for k in FILL}
+        if sizes is not None or method == "combined":
+            field = {k: self._field(k, slice(None)) for k in FILL}
             propagation = None
             if sizes is not None:
-                codes, propagation = fit_drop_sizes(sizes, self.field, dbz, self.echo, step)
-            self._adopt(self._cells(slice(None), self.field, propagation))
+                codes, propagation = fit_drop_sizes(sizes, field, dbz, self.echo, step)
+            self._put(slice(None), self._cells(slice(None), field, propagation))
             self._done[:] = True
         self.model = None
         if method in ("covariance", "monte_carlo", "combined"):
@@ -363,16 +363,7 @@ class TruthCells:
                     continue
                 sl = slice(int(b) * self.BLOCK_ROWS, (int(b) + 1) * self.BLOCK_ROWS)
                 field = {k: self._field(k, sl) for k in FILL}
-                for name, value in self._cells(sl, field, None).items():
-                    if name == "field":
-                        for k, v in value.items():
-                            self.field[k][sl] = v
-                    elif name == "lags":
-                        self._lags[:, sl] = value
-                    elif name == "codes":
-                        self.factors.code[sl] = value  # type: ignore[union-attr]
-                    else:
-                        getattr(self, name)[sl] = value
+                self._put(sl, self._cells(sl, field, None))
                 self._done[b] = True
 
     def _padded(self, a: np.ndarray) -> np.ndarray:
@@ -436,14 +427,18 @@ class TruthCells:
             out["codes"] = codes
         return out
 
-    def _adopt(self, cells: dict[str, Any]) -> None:
-        """The whole truth's cells as this object's arrays."""
-        self.s_h, self.s_v, self.rho = cells["s_h"], cells["s_v"], cells["rho"]
-        self._lags = cells["lags"]
-        self.r1_h, self.r1_v, self.cross = cells["r1_h"], cells["r1_v"], cells["cross"]
-        self.u, self.phase_dp, self.field = cells["u"], cells["phase_dp"], cells["field"]
-        if self.factors is not None:
-            self.factors.code = cells["codes"]
+    def _put(self, rows: slice, cells: dict[str, Any]) -> None:
+        """Radials ``rows`` of this object's arrays set to ``cells`` (:meth:`_cells`)."""
+        for name, value in cells.items():
+            if name == "field":
+                for k, v in value.items():
+                    self.field[k][rows] = v
+            elif name == "lags":
+                self._lags[:, rows] = value
+            elif name == "codes":
+                self.factors.code[rows] = value  # type: ignore[union-attr]
+            else:
+                getattr(self, name)[rows] = value
 
     def lags(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Normalised lag-1 and lag-2 correlations r(1), r(2) of the cells of radials ``rows``."""
