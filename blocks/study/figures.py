@@ -7,10 +7,11 @@ from __future__ import annotations
 import base64
 import os
 import threading
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
+
+from .measuring import timed
 
 
 @dataclass
@@ -127,8 +128,7 @@ _ONE_AT_A_TIME = threading.Lock()
 def _drawn_alone(draw: Callable[..., Figure | None], *args: Any) -> tuple[Figure | None, float]:
     """``draw(*args)`` and the seconds it took, one figure at a time in this process."""
     with _ONE_AT_A_TIME:
-        t0 = time.perf_counter()
-        return draw(*args), time.perf_counter() - t0
+        return timed(draw, *args)
 
 
 class Drawing:

@@ -15,7 +15,9 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeVar
+
+T = TypeVar("T")
 
 
 class Measuring:
@@ -67,8 +69,8 @@ class Measuring:
         self.log(f"measured {what}: {seconds:.1f} s")
 
 
-def timed(measure: Callable[..., dict], *args: Any) -> tuple[dict, float]:
-    """``measure(*args)`` and the seconds it took where it ran (not counting its wait in the
+def timed(work: Callable[..., T], *args: Any) -> tuple[T, float]:
+    """``work(*args)`` and the seconds it took where it ran (not counting its wait in the
     cluster's queue, nor the study's wait for it)."""
     t0 = time.perf_counter()
-    return measure(*args), time.perf_counter() - t0
+    return work(*args), time.perf_counter() - t0
