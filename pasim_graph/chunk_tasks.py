@@ -42,9 +42,11 @@ def run_and_write(
     path: str,
     attrs: dict[str, Any],
     group: str = "sweep_0",
+    run: str | None = None,
 ) -> dict[str, Any] | None:
     """One task: run the graph on a chunk of one sweep's beams and write its region of that
-    sweep's group (on a worker); ``index`` numbers the chunk among all the run's chunks.
+    sweep's group (on a worker); ``index`` numbers the chunk among all the run's chunks,
+    ``run`` this run of the store's layout (:func:`.store.write_region`).
 
     Returns the task's record (when it ran, where, its CPU time and the bytes it wrote), or
     None when the run was stopped before it wrote.
@@ -56,7 +58,7 @@ def run_and_write(
     computed = time.time()
     if STOPPING.is_set():
         return None  # the run was stopped while this chunk ran: it writes nothing more
-    write_region(path, sweep, int(beams[0]), index, group)
+    write_region(path, sweep, int(beams[0]), index, group, run)
     beam_dim = beam_dimension(sweep)
     return {
         "kind": "chunk",
@@ -93,6 +95,7 @@ def compute_local(
     from dask.diagnostics import ProgressBar
     from threadpoolctl import threadpool_limits
 
+    run = os.urandom(8).hex()  # the store's arrays are opened once for this run's chunks
     tasks = [
         dask.delayed(run_and_write, pure=False)(
             sweeps[starts[i][0]],
@@ -102,6 +105,7 @@ def compute_local(
             path,
             attrs,
             sweep_group(starts[i][0]),
+            run,
             dask_key_name=keys[i],
         )
         for i in todo
@@ -172,7 +176,8 @@ def compute_distributed(
     # keeps one copy of what the chunks still need) and they are made again on another.
     # Scattered data it cannot make again: a worker lost while it held the last copy
     # cancelled the chunks waiting for it ("lost dependencies"). Their keys are this
-    # run's own (a fresh token: never another run's in flight on the same cluster).
+    # run's own (a fresh token: never another run's in flight on the same cluster); the
+    # same token has each worker open the store's arrays once for the run's chunks.
     own = f"pasim-inputs-{os.urandom(8).hex()}"
     import dask
 
@@ -199,6 +204,7 @@ def compute_distributed(
             path,
             attrs,
             sweep_group(starts[i][0]),
+            own,
             key=keys[i],
             priority=-(submitted << 20) - min(rank[i], (1 << 20) - 1),
         )

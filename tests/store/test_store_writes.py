@@ -66,3 +66,89 @@ def test_direct_and_xarray_writes_read_back_as_computed(tmp_path):
         assert len(files) == 2, (name, files)
     state = run_state(ours)
     assert state is not None and state[1].tolist() == [1, 1]
+
+
+def test_chunk_files_are_the_bytes_zarr_writes(tmp_path):
+    """Whole chunks are encoded here rather than by zarr's asynchronous pipeline: every chunk
+    file must be the bytes zarr itself writes for the same values (the reference: the same
+    regions written by zarr's own ``Array.__setitem__`` into arrays laid out the same way),
+    for each dtype a store holds, a 3-D cube, a last chunk sticking out of the array, and a
+    region of two chunks. A region that cuts a chunk goes to zarr and reads back too."""
+    import zarr
+    from zarr.core.sync import sync
+
+    from pasim_graph.store import encoding
+    from pasim_graph.store.writes import write_arrays
+
+    rng = np.random.default_rng(7)
+    cases = {
+        "f4": ((7, 5), (3, 5), np.float32),
+        "c8": ((7, 5), (3, 5), np.complex64),
+        "i1": ((7, 5), (3, 5), np.int8),
+        "f8": ((7,), (3,), np.float64),
+        "cube": ((7, 4, 5), (3, 4, 5), np.complex64),
+    }
+    regions = [slice(0, 3), slice(3, 6), slice(6, 7)]  # the last sticks out of its chunk
+    for name, (shape, chunks, dtype) in cases.items():
+        arrays = []
+        for which in ("ours", "zarr"):
+            arrays.append(
+                zarr.create_array(
+                    str(tmp_path / which),
+                    name=name,
+                    shape=shape,
+                    chunks=chunks,
+                    **encoding(np.dtype(dtype)),
+                )
+            )
+        ours, theirs = arrays
+        stored = sync(zarr.api.asynchronous.open_array(store=str(tmp_path / "ours"), path=name))
+        values = rng.normal(size=shape) * 50
+        if np.dtype(dtype).kind == "c":
+            values = values + 1j * rng.normal(size=shape)
+        values = values.astype(dtype)
+        if np.dtype(dtype).kind == "f":
+            values[0, ...] = np.nan  # a row of no data
+        for beams in [*regions, slice(0, 6)]:
+            where = (beams,) + (slice(None),) * (len(shape) - 1)
+            sync(write_arrays([(stored, where, values[where])]))
+            theirs.with_config({"write_empty_chunks": True})[where] = values[where]
+        files = sorted(
+            p.relative_to(tmp_path / "ours") for p in (tmp_path / "ours" / name).rglob("*")
+        )
+        assert len([f for f in files if (tmp_path / "ours" / f).is_file()]) == 4, name
+        for f in files:
+            a, b = tmp_path / "ours" / f, tmp_path / "zarr" / f
+            assert a.is_file() == b.is_file(), (name, f)
+            if a.is_file():
+                assert a.read_bytes() == b.read_bytes(), (name, f)
+        np.testing.assert_array_equal(ours[...], values, err_msg=name)
+    # A region cutting a chunk: zarr merges it into the chunk's stored values.
+    stored = sync(zarr.api.asynchronous.open_array(store=str(tmp_path / "ours"), path="f4"))
+    before = zarr.open_array(str(tmp_path / "ours"), path="f4")[...]
+    sync(write_arrays([(stored, (slice(1, 2), slice(None)), np.full((1, 5), 9, np.float32))]))
+    before[1] = 9
+    np.testing.assert_array_equal(zarr.open_array(str(tmp_path / "ours"), path="f4")[...], before)
+
+
+def test_a_new_layout_under_a_new_run_token_is_opened_afresh(tmp_path):
+    """A run's arrays are opened once per process and kept for its token; an overwritten
+    store laid out again (other dtypes, another size) is written under a fresh token, and
+    must be written by its new arrays, not the kept ones."""
+    path = tmp_path / "s.zarr"
+    lay_out(path)
+    write_region(path, chunk(0), 0, 0, run="first")
+    import shutil
+
+    shutil.rmtree(path)
+    first = chunk(0)
+    shifted = first.assign_coords(azimuth=first.azimuth + CHUNK)
+    wider = xr.concat([first, shifted], "azimuth", data_vars="minimal", coords="minimal")
+    wider["DBZH"] = wider["DBZH"].astype(np.float64)
+    coords = {"azimuth": xr.Variable("azimuth", np.arange(2 * BEAMS, dtype=np.float64))}
+    create_volume(path, xr.Dataset(attrs={"title": "t"}), wider, coords, 2 * BEAMS, 2 * CHUNK, 2)
+    write_region(path, wider, 0, 0, run="second")
+    back = xr.open_datatree(path, engine="zarr")["sweep_0"].to_dataset()
+    assert back["DBZH"].dtype == np.float64
+    np.testing.assert_array_equal(back["DBZH"].values[: 2 * CHUNK], wider["DBZH"].values)
+    assert run_state(path)[1].tolist() == [1, 0]
