@@ -146,3 +146,19 @@ def test_the_study_model_spreads_measurements_and_figures(bench):
     )
     assert sum(float(x) for x in bench.MEASURED.findall(err)) == 2.0
     assert bench.REPORTED.search(err).groups() == ("4.2", "15", "5.6")
+
+
+def test_fitted_on_several_runs_each_term_is_their_median(bench):
+    # Three one-worker runs: two alike, one whose first chunk paid 2 s more (a noisy first
+    # use): the fit follows the two, for every beam and every term.
+    runs = [
+        {"record": record(1.0, first_use=0.5), "wall_s": 8 * 1.1 + 5.5},
+        {"record": record(1.0, first_use=0.5), "wall_s": 8 * 1.1 + 5.5},
+        {"record": record(1.0, first_use=2.5), "wall_s": 8 * 1.1 + 7.5},
+    ]
+    fitted = bench.fit_graph_model(runs)
+    alone = bench.graph_model(runs[0])
+    assert fitted["runs"] == 3 and fitted["costs"] == pytest.approx(alone["costs"])
+    for term in ("first_use_s", "fixed_s", "write_s", "phase_cpu_s", "beam_s"):
+        assert fitted[term] == pytest.approx(alone[term]), term
+    assert bench.predict(fitted, 2)["chunks_s"] == pytest.approx(4 * 1.1 + 0.5)
