@@ -260,11 +260,23 @@ class StudyCommand:
                 file=sys.stderr,
             )
             return
+        from pasim_graph.interrupt import StopMessage, Stopped, stop_on_signals
+
         from ..study.figures import Drawing
         from ..study.report import write_report
 
         t0, drawing = time.perf_counter(), Drawing(client)
-        path = write_report(out, drawing)
+        try:
+            # Stopped while the figures are drawn: the runs and scores are all kept, only the
+            # report is missing (report.html is written whole or not at all).
+            with stop_on_signals():
+                path = write_report(out, drawing)
+        except Stopped as exc:
+            raise StopMessage(
+                f"stopped by {exc} while drawing the report: the runs and scores are kept in "
+                f"{out}; `pasim study {out} --report-only` draws it",
+                exc.exit_code,
+            ) from None
         where = " on the cluster" if client is not None else ""
         print(
             f"wrote {path} in {time.perf_counter() - t0:.1f} s ({drawing.count} figures, "

@@ -379,3 +379,34 @@ def test_a_study_with_every_run_in_flight_is_the_serial_study(tmp_path, study):
     assert list(ours_m["runs"]) == list(theirs_m["runs"])  # recorded in the study's order
     for key in ("beamwidths", "patterns", "hardware"):
         assert ours_m.get(key) == theirs_m.get(key), key
+
+
+def test_a_study_stopped_while_drawing_its_report_says_how_to_draw_it(
+    tmp_path, capsys, study, monkeypatch
+):
+    """Ctrl-C while the report's figures were drawn ended in a bare "interrupted": the runs
+    and scores were kept, and nothing said the report was missing or how to draw it."""
+    import os
+    import shutil
+    import signal
+    import time
+
+    import pasim_blocks.study.report as report
+
+    copy = tmp_path / "out"
+    shutil.copytree(study, copy)
+    (copy / "report.html").unlink(missing_ok=True)
+
+    def interrupted(*args: Any, **kwargs: Any) -> Path:
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(5)  # the stop lands here
+        raise AssertionError("not stopped")
+
+    monkeypatch.setattr(report, "write_report", interrupted)
+    code = main(["study", str(STUDY), "--out", str(copy), "--resume"])
+    err = capsys.readouterr().err
+    assert code == 130, err
+    assert "Traceback" not in err, err
+    last = err.strip().splitlines()[-1]
+    assert "while drawing the report" in last and f"pasim study {copy} --report-only" in last
+    assert (copy / "scores.json").is_file() and not (copy / "report.html").exists()
