@@ -18,6 +18,7 @@ threads, and the check that every worker shares the store's folder before anythi
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -325,8 +326,9 @@ def test_a_worker_that_cannot_write_says_why(tmp_path):
 
 
 def same_study(out: Path, study: Path) -> None:
-    """Every store of ``out`` holds the values of the serial study's (``study``), and its
-    scores.json is the same file."""
+    """Every store of ``out`` holds the values of the serial study's (``study``), its
+    scores.json is the same file, and the antenna and hardware measurements its manifest
+    keeps (tasks on the workers, which run in a folder of their own here) are the same."""
     stores = sorted(p.relative_to(study) for p in (study / "runs").rglob("*.zarr"))
     assert stores == sorted(p.relative_to(out) for p in (out / "runs").rglob("*.zarr"))
     for rel in stores:
@@ -336,6 +338,10 @@ def same_study(out: Path, study: Path) -> None:
             kind = theirs[name].dtype.kind
             assert np.array_equal(ours[name], theirs[name], equal_nan=kind in "fc"), (rel, name)
     assert (out / "scores.json").read_text() == (study / "scores.json").read_text()
+    ours_m = json.loads((out / "pasim-study.json").read_text())
+    theirs_m = json.loads((study / "pasim-study.json").read_text())
+    for key in ("beamwidths", "patterns", "hardware"):
+        assert theirs_m.get(key) and ours_m.get(key) == theirs_m.get(key), key
 
 
 STUDY = ["study", str(TINY_STUDY), "--no-report"]
