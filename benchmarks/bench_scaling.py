@@ -293,10 +293,13 @@ def study_model(row: dict) -> dict:
     (tasks too, once the runs are done), the rest (start-up, scoring, the report's page: one
     after another), the CPU that ran beside the work (the workers' tasks and the ``pasim``
     process's own share: set-up, scoring, the scheduler), and each run's beams and first use
-    (its first chunk beyond a typical one: the run's prepared inputs, which every further
-    worker it reaches prepares again)."""
+    (:func:`leading_excess`: the run's memos, which every further worker it reaches fills
+    again), and what starting a worker cost (its process's CPU
+    before its first task: imports, warm-up, the first run's inputs; every further worker
+    pays it again)."""
     work = row.get("measure_s", 0.0)
     runs = []
+    started: dict[str, float] = {}
     for r in row["records"]:
         # The set-up steps; not the cluster's connection (shared) nor the chunk phase, whose
         # tasks are counted one by one below.
@@ -305,9 +308,13 @@ def study_model(row: dict) -> dict:
         tasks = sorted(r["tasks"], key=lambda t: t["start"])
         spans = [t["stop"] - t["start"] for t in tasks]
         work += sum(spans)
-        first = max(spans[0] - statistics.median(spans[1:]), 0.0) if len(spans) > 1 else 0.0
+        first = leading_excess(spans)
         beams = sum(t["beams"][1] - t["beams"][0] for t in tasks if "beams" in t)
         runs.append((beams, first))
+        for t in tasks:
+            if "worker_cpu_s" in t:  # records from before it: no start-up term
+                w = t["worker"]
+                started[w] = min(started.get(w, t["worker_cpu_s"]), t["worker_cpu_s"])
     figures_s = row.get("figures_s", 0.0)
     rest = max(row["wall_s"] - work - figures_s, 0.0)
     return {
@@ -316,8 +323,26 @@ def study_model(row: dict) -> dict:
         "figures": row.get("figures", 0),
         "rest_s": rest,
         "beside_cpu_s": max(row["cpu_s"] - rest - figures_s, 0.0),
+        "start_cpu_s": statistics.median(started.values()) if started else 0.0,
         "runs": runs,
     }
+
+
+def leading_excess(spans: list[float]) -> float:
+    """A run's first use on a worker, from its chunks' times in the order one worker ran them:
+    what its leading chunks took beyond a typical one (the median of all but the first), up
+    to the first typical chunk. Some memos fill over several chunks, not one: the 2 m
+    CPPAR's pattern grids, one for each beam offset in a column period, are made by the
+    first chunk that needs each (its expected run's chunks on one worker, in order: 1.53,
+    0.99, 0.64, 0.63, then 0.08-0.5 s), and each further worker makes them again."""
+    if len(spans) < 2:
+        return 0.0
+    typical, excess = statistics.median(spans[1:]), 0.0
+    for span in spans:
+        if span <= typical:
+            break
+        excess += span - typical
+    return excess
 
 
 def first_uses(model: dict, workers: int) -> float:
@@ -333,11 +358,11 @@ def first_uses(model: dict, workers: int) -> float:
 
 def predict_study(model: dict, workers: int, cores: int | None = None) -> float:
     """Runs overlapped: the rest one after another, the work spread over the workers with the
-    first uses they pay again (but never faster than the cores can give the CPU that runs
-    beside it; ``cores``: the machine's, one a worker when not given), then the report's
-    figures spread over them."""
+    first uses they pay again and each further worker's start-up (but never faster than the
+    cores can give the CPU that runs beside it; ``cores``: the machine's, one a worker when
+    not given), then the report's figures spread over them."""
     cores = cores or workers
-    again = first_uses(model, workers)
+    again = first_uses(model, workers) + (workers - 1) * model.get("start_cpu_s", 0.0)
     figures = model.get("figures_s", 0.0) / max(1, min(workers, model.get("figures", 1) or 1))
     work = max((model["work_s"] + again) / workers, (model["beside_cpu_s"] + again) / cores)
     return model["rest_s"] + work + figures
@@ -346,7 +371,8 @@ def predict_study(model: dict, workers: int, cores: int | None = None) -> float:
 def study_busy(model: dict, workers: int) -> float:
     """The share of ``workers`` cores (a core each) busy over the predicted study: the CPU
     measured on one worker, with the first uses paid again."""
-    cpu = model["rest_s"] + model["figures_s"] + model["beside_cpu_s"] + first_uses(model, workers)
+    again = first_uses(model, workers) + (workers - 1) * model.get("start_cpu_s", 0.0)
+    cpu = model["rest_s"] + model["figures_s"] + model["beside_cpu_s"] + again
     return cpu / (workers * predict_study(model, workers))
 
 

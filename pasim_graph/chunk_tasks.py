@@ -70,6 +70,7 @@ def run_and_write(
         "stop": time.time(),
         "cpu_s": time.thread_time() - cpu,
         "process_cpu_s": time.process_time() - process_cpu,
+        "worker_cpu_s": process_cpu,
         "worker": worker_name(),
         "bytes": int(sum(v.nbytes for v in sweep.data_vars.values() if beam_dim in v.dims)),
     }

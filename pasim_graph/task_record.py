@@ -27,6 +27,7 @@ TASK_COLUMNS = (
     "stop",
     "cpu_s",
     "process_cpu_s",
+    "worker_cpu_s",
     "worker",
     "bytes",
 )
@@ -78,6 +79,7 @@ class TaskRecord:
                 row[k] = self._t(row[k])
             row["cpu_s"] = round(row["cpu_s"], 4)
             row["process_cpu_s"] = round(row["process_cpu_s"], 4)
+            row["worker_cpu_s"] = round(row["worker_cpu_s"], 4)
             rows.append([row[c] for c in TASK_COLUMNS])
         return {
             **self.head,

@@ -92,6 +92,7 @@ def test_the_study_model_counts_set_up_steps_and_tasks_once(bench):
         "figures": 0,
         "rest_s": 4.0,
         "beside_cpu_s": 26.0,
+        "start_cpu_s": 0.0,  # a record from before the workers' CPU was kept
         "runs": [(0, 0.0), (0, 0.0)],  # no beams recorded, and no first use
     }
     assert bench.predict_study(model, 2, 2) == 17.0
@@ -162,3 +163,31 @@ def test_fitted_on_several_runs_each_term_is_their_median(bench):
     for term in ("first_use_s", "fixed_s", "write_s", "phase_cpu_s", "beam_s"):
         assert fitted[term] == pytest.approx(alone[term]), term
     assert bench.predict(fitted, 2)["chunks_s"] == pytest.approx(4 * 1.1 + 0.5)
+
+
+def test_every_further_worker_pays_a_worker_s_start_again(bench):
+    """The one worker of a study (made up) had used 3 s of CPU when its first task began (its
+    imports, warm-up, the first inputs) and more at each later one: that 3 s is what starting
+    a worker costs, paid again by each further worker. Work 12 s, rest 2 s, 12 s of CPU beside
+    the work: on 2 workers and 2 cores 2 + (12 + 3) / 2."""
+    run = {
+        "steps": [],
+        "tasks": [
+            {"start": 4.0 * i, "stop": 4.0 * i + 4.0, "worker": "h:1", "worker_cpu_s": 3.0 + 4 * i}
+            for i in range(3)
+        ],
+    }
+    model = bench.study_model({"records": [run], "wall_s": 14.0, "cpu_s": 14.0})
+    assert model["start_cpu_s"] == 3.0 and model["beside_cpu_s"] == 12.0
+    assert bench.predict_study(model, 1, 1) == pytest.approx(14.0)
+    assert bench.predict_study(model, 2, 2) == pytest.approx(2.0 + 15.0 / 2)
+    assert bench.study_busy(model, 2) == pytest.approx((2.0 + 12.0 + 3.0) / (2 * (2.0 + 15.0 / 2)))
+
+
+def test_a_run_s_first_use_is_what_its_leading_chunks_took_beyond_a_typical_one(bench):
+    # Memos filled over the first three chunks (1.5, 1.0, 0.6 against a typical 0.2), then a
+    # chunk of more weather later (0.9): the first use is 1.3 + 0.8 + 0.4, not the later one.
+    spans = [1.5, 1.0, 0.6, 0.2, 0.1, 0.2, 0.9, 0.2, 0.2]
+    assert bench.leading_excess(spans) == pytest.approx(2.5)
+    assert bench.leading_excess([0.1, 0.3, 0.2]) == 0.0  # a first chunk below typical
+    assert bench.leading_excess([2.0]) == 0.0
