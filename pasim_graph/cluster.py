@@ -79,7 +79,7 @@ def check_storage(scheduler: str, target: str | Path, client: Any = None) -> Non
             client.close()
 
 
-def _warm_up(classes: list[type[Block]]) -> None:
+def warm_up_here(classes: list[type[Block]]) -> None:
     """A worker's first-use costs, paid when it starts (while the client reads the inputs)
     instead of in its first chunk: the blocks' lazy imports, and the engine's own."""
     for cls in classes:
@@ -91,16 +91,22 @@ def warm_engine() -> None:
     """Pay the first use of what every chunk task uses: xarray's look-up of the duck-array
     libraries (it imports pint, sparse, cupy... at the first index it builds: 0.5-1 s of CPU,
     measured in a worker's first chunk) and the store's write path (xarray's zarr backend, the
-    codecs), on a throwaway store in a temporary folder."""
+    codecs), on a throwaway store in a temporary folder; the stored attributes' table (read
+    once, its check of xradar's version imports ``importlib_metadata``); a variable's size
+    (xarray imports its array-API module at the first)."""
     import tempfile
 
+    from .fm301 import cf_attributes
     from .store import encoding
+
+    cf_attributes()
 
     ds = xr.Dataset(
         {"v": (("azimuth", "range"), np.zeros((2, 3), np.float32))},
         coords={"azimuth": np.arange(2.0), "range": np.arange(3.0)},
     )
     ds = xr.merge([ds, ds.rename({"v": "w"})], compat="override", join="override")
+    ds["v"].nbytes  # noqa: B018  (its first use imports)
     with tempfile.TemporaryDirectory(prefix="pasim-warm-") as tmp:
         import warnings
 
@@ -168,11 +174,11 @@ def warm_up_workers(client: Any, classes: list[type[Block]], *, wait: bool = Tru
     first pays the imports itself, as without a warm-up)."""
     # distributed sends without waiting only a coroutine function (it runs it on the
     # worker's event loop, as it runs a plain one).
-    client.run(_warm_up_async if not wait else _warm_up, classes, wait=wait)
+    client.run(_warm_up_async if not wait else warm_up_here, classes, wait=wait)
 
 
 async def _warm_up_async(classes: list[type[Block]]) -> None:
-    _warm_up(classes)
+    warm_up_here(classes)
 
 
 def worker_name() -> str:

@@ -37,6 +37,11 @@ class PlanarPatchArray(ArrayAntenna):
     ``embedded_pattern: cell`` the cos(theta) pattern of a large array's embedded element.
     """
 
+    @classmethod
+    def warm_up(cls) -> None:
+        super().warm_up()
+        from . import coupling  # noqa: F401  (its elements are made per chunk)
+
     frequency_hz = Param(2.8e9, units="Hz", min=1e8, max=1e11, doc="carrier frequency")
     n_x = Param(80, type="int", min=1, max=4096, doc="elements across (azimuth)")
     n_y = Param(80, type="int", min=1, max=4096, doc="elements up (elevation)")
