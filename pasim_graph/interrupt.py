@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 from typing import Any
@@ -66,12 +67,23 @@ def stop_on_signals() -> Iterator[None]:
             return
         raise Stopped(signum)
 
+    unraisable = sys.unraisablehook
+
+    def quiet(info: Any) -> None:
+        # A stop that lands in a finaliser (a weak set dropping an object the collector freed
+        # in this thread) cannot be raised there: Python prints it as "Exception ignored" with
+        # a traceback. STOPPING is set all the same, and the run stops at its next check.
+        if not isinstance(info.exc_value, Stopped):
+            unraisable(info)
+
     previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    sys.unraisablehook = quiet
     STOPPING.clear()
     _Held.signum = None
     try:
         yield
     finally:
+        sys.unraisablehook = unraisable
         for s, h in previous.items():
             # After a stop the command is ending: later signals are ignored, not turned into
             # a KeyboardInterrupt in the middle of its last message.
