@@ -142,3 +142,19 @@ def test_a_killed_scheduler_ends_the_run_cleanly_and_resume_completes(tmp_path, 
     assert state is not None and state[0]["pasim_complete"] != "true"
     assert main([*RUN, "--out", str(out), "--resume"]) == 0
     same_sweep(out, reference)
+
+
+def test_a_scheduler_is_lost_once_the_client_notices_within_the_wait():
+    """A record fetched as the scheduler was killed failed while the client still said
+    "running": the run printed a traceback. The client is given a moment to notice."""
+    import threading
+
+    from pasim_graph.chunk_tasks import scheduler_lost
+
+    class Client:
+        status = "running"
+
+    noticing = Client()
+    threading.Timer(0.2, lambda: setattr(noticing, "status", "connecting")).start()
+    assert scheduler_lost(noticing, wait_s=3.0)
+    assert not scheduler_lost(Client(), wait_s=0.2)  # still running: an error of its own
