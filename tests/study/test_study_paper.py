@@ -155,10 +155,15 @@ def test_the_volume_widens_every_error_and_keeps_the_paper_ranking(volume):
     growth = {s: dbz["volume"][s]["std"] / dbz["one-sweep"][s]["std"] for s in systems}
     assert all(g > 1.0 for g in growth.values()), growth
     assert growth["cppar2"] > growth["atd"] > max(growth["generic"], growth["cppar10"])
+    # The paper's order stays in both cases, the ATD and the 2 m CPPAR each ranked apart from
+    # the rest. The generic radar and the 10 m CPPAR, together in the paper, stay within 10 %
+    # of each other; the rankings' paired comparisons on common gates may tell them apart (by
+    # 0.06 and 0.09 dB, paired intervals clear of zero, 2026-11-29), the unpaired could not.
     ranks = scores["_study"]["rankings"]
-    expected = [["generic", "cppar10"], ["atd"], ["cppar2"]]
-    assert [sorted(g) for g in ranks["one-sweep"]["DBZH"]] == [sorted(g) for g in expected]
-    assert [sorted(g) for g in ranks["volume"]["DBZH"]] == [sorted(g) for g in expected]
+    for case in ("one-sweep", "volume"):
+        group = {s: i for i, g in enumerate(ranks[case]["DBZH"]) for s in g}
+        assert group["generic"] <= group["cppar10"] < group["atd"] < group["cppar2"], ranks[case]
+        assert dbz[case]["cppar10"]["std"] <= 1.1 * dbz[case]["generic"]["std"]
     # The volume has no echo below its lowest sweep's coverage (0.03 deg): 38 % of the broad
     # beam's two-way pattern at 0.5 deg (-2.1 dB), which takes most of its bias away.
     assert dbz["one-sweep"]["cppar2"]["bias"] > 1.0 > 3 * abs(dbz["volume"]["cppar2"]["bias"])
