@@ -294,9 +294,8 @@ def study_model(row: dict) -> dict:
     after another), the CPU that ran beside the work (the workers' tasks and the ``pasim``
     process's own share: set-up, scoring, the scheduler), and each run's beams and first use
     (:func:`leading_excess`: the run's memos, which every further worker it reaches fills
-    again), and what starting a worker cost (its process's CPU
-    before its first task: imports, warm-up, the first run's inputs; every further worker
-    pays it again)."""
+    again), and what starting a worker cost (its process's CPU before its first task:
+    imports, warm-up, the first run's inputs; every further worker pays it again)."""
     work = row.get("measure_s", 0.0)
     runs = []
     started: dict[str, float] = {}
@@ -356,13 +355,19 @@ def first_uses(model: dict, workers: int) -> float:
     return extra
 
 
+def paid_again(model: dict, workers: int) -> float:
+    """The CPU that ``workers`` pay beyond one: the runs' first uses again
+    (:func:`first_uses`) and each further worker's start."""
+    return first_uses(model, workers) + (workers - 1) * model.get("start_cpu_s", 0.0)
+
+
 def predict_study(model: dict, workers: int, cores: int | None = None) -> float:
     """Runs overlapped: the rest one after another, the work spread over the workers with the
     first uses they pay again and each further worker's start-up (but never faster than the
     cores can give the CPU that runs beside it; ``cores``: the machine's, one a worker when
     not given), then the report's figures spread over them."""
     cores = cores or workers
-    again = first_uses(model, workers) + (workers - 1) * model.get("start_cpu_s", 0.0)
+    again = paid_again(model, workers)
     figures = model.get("figures_s", 0.0) / max(1, min(workers, model.get("figures", 1) or 1))
     work = max((model["work_s"] + again) / workers, (model["beside_cpu_s"] + again) / cores)
     return model["rest_s"] + work + figures
@@ -370,9 +375,8 @@ def predict_study(model: dict, workers: int, cores: int | None = None) -> float:
 
 def study_busy(model: dict, workers: int) -> float:
     """The share of ``workers`` cores (a core each) busy over the predicted study: the CPU
-    measured on one worker, with the first uses paid again."""
-    again = first_uses(model, workers) + (workers - 1) * model.get("start_cpu_s", 0.0)
-    cpu = model["rest_s"] + model["figures_s"] + model["beside_cpu_s"] + again
+    measured on one worker, with what further workers pay again (:func:`paid_again`)."""
+    cpu = model["rest_s"] + model["figures_s"] + model["beside_cpu_s"] + paid_again(model, workers)
     return cpu / (workers * predict_study(model, workers))
 
 
