@@ -77,9 +77,8 @@ class TaskRecord:
             row = dict(task)
             for k in ("start", "computed", "stop"):
                 row[k] = self._t(row[k])
-            row["cpu_s"] = round(row["cpu_s"], 4)
-            row["process_cpu_s"] = round(row["process_cpu_s"], 4)
-            row["worker_cpu_s"] = round(row["worker_cpu_s"], 4)
+            for k in ("cpu_s", "process_cpu_s", "worker_cpu_s"):
+                row[k] = round(row[k], 4)
             rows.append([row[c] for c in TASK_COLUMNS])
         return {
             **self.head,
