@@ -7,7 +7,9 @@ For each worker count (alternating, ``--repeat`` rounds), runs the graph in a fr
 --workers W` process and reads back the store's task record (``pasim_tasks``: every chunk
 task's start, stop, worker and bytes, and the set-up steps). With ``--baseline-pythonpath``
 the same command also runs under another build of the code (a folder holding ``pasim_graph``
-and ``pasim_blocks``), back to back with this one, for paired ratios. Then runs the study
+and ``pasim_blocks``; a checkout's ``blocks/`` is found only through an install, so for a
+checkout give ``--baseline-python``, a venv's interpreter with it installed), back to back
+with this one, for paired ratios. Then runs the study
 (its sector cut to ``--study-sector`` to keep it short) at each worker count and measures the
 share of the cores its processes kept busy: CPU seconds of all its processes / (wall x W).
 
@@ -96,6 +98,29 @@ def environment(pythonpath: str | None) -> dict[str, str]:
 def python(args: argparse.Namespace, build: str) -> str:
     """The interpreter of a build: this one's, or ``--baseline-python`` (another venv)."""
     return args.baseline_python if build == "baseline" and args.baseline_python else sys.executable
+
+
+def foreign_packages(interpreter: str, pythonpath: str) -> str:
+    """What of the baseline build would not come from ``pythonpath`` ("" when both
+    packages do). A checkout holds the block library as ``blocks/``, found as
+    ``pasim_blocks`` only through an install: with a PYTHONPATH alone the baseline would run
+    this build's blocks (2026-11-29: a block change measured against itself)."""
+    code = "import pasim_graph as g, pasim_blocks as b; print(g.__file__); print(b.__file__)"
+    found = subprocess.run(
+        [interpreter, "-c", code],
+        env=environment(pythonpath),
+        capture_output=True,
+        text=True,
+        cwd=tempfile.gettempdir(),  # as timed runs them
+    ).stdout.split()
+    root = Path(pythonpath).resolve()
+    away = [f for f in found if root not in Path(f).resolve().parents]
+    if len(found) != 2 or away:
+        return (
+            f"the baseline's packages come from {', '.join(away) or 'nowhere'}, not from it: "
+            "give --baseline-python, the interpreter of a venv with the baseline installed"
+        )
+    return ""
 
 
 def graph_run(args: argparse.Namespace, workers: int, build: str, pythonpath: str | None) -> dict:
@@ -418,6 +443,11 @@ def main() -> int:
     ap.add_argument("--keep", help="keep each study's folder under DIR/BUILD_wW (report, scores)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_scaling.jsonl"))
     args = ap.parse_args()
+    if args.baseline_pythonpath:
+        misplaced = foreign_packages(python(args, "baseline"), args.baseline_pythonpath)
+        if misplaced:
+            print(f"bench_scaling: --baseline-pythonpath {args.baseline_pythonpath}: {misplaced}")
+            return 2
     counts = [int(w) for w in args.workers.split(",")]
     builds = [("new", None)] + (
         [("baseline", args.baseline_pythonpath)]

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from pasim_graph import Chunk, Param
+from pasim_graph.memo import SHARED, state_key
 
 from ..signals import POLARIZATIONS
 from .array import ArrayAntenna, ideal_copy
@@ -113,7 +114,7 @@ class CylindricalArray(ArrayAntenna):
         doc="pattern grid step (azimuth: rounded down to a divisor of the column spacing)",
     )
 
-    transient = ("_memo", "_draws")
+    transient = ("_memo", "_draws", "_state")
     directivity_db: dict[str, float]  # per polarisation, set with the broadside figures
 
     @classmethod
@@ -176,6 +177,7 @@ class CylindricalArray(ArrayAntenna):
         self.z_m = (np.arange(m) - (m - 1) / 2) * p["spacing_y_m"]
         self.taper_y = taylor_taper(m, p["taylor_sll_y_db"], p["taylor_nbar_y"])
         self._memo: dict[tuple[int, int, float], np.ndarray] | None = {}
+        self._state: str | None = None  # state_key, once prepared
         self._element_model: Any = None
         self.prepared = False
         if p["element"] != "file":
@@ -328,10 +330,21 @@ class CylindricalArray(ArrayAntenna):
         if self._memo is None:  # dropped when the block was pickled to a worker
             self._memo = {}
         # Patterns repeat from beam to beam only when the electronics draw nothing at random
-        # (then they depend on the offset alone); random sectors are not kept.
+        # (then they depend on the offset alone); random sectors are not kept. Once prepared,
+        # the array's state is fixed, and the process's later runs of an equal array (a
+        # study's seeds and reference run, a worker's next run) find its grids in SHARED.
         key = (-1, step, round(el_deg, 9))
         if not self.channel.random and key in self._memo:
             return self._memo[key]
+        shared = None
+        if not self.channel.random and self.prepared:
+            if self._state is None:
+                self._state = self._grid_state_key()
+            shared = (self._state, key)
+            kept = SHARED.get(shared)
+            if kept is not None:
+                self._memo[key] = kept
+                return kept
         n, per = self.p["excited_columns"], self.per_column
         half_span = (self.d_az.size - 1) // 2
         count = self.d_az.size + (n - 1) * per
@@ -352,8 +365,18 @@ class CylindricalArray(ArrayAntenna):
             kernel[0, ::per] = weights[i // 2]
             out[i] = vertical * fftconvolve(f, kernel, mode="valid", axes=1)
         if not self.channel.random:
-            self._memo[key] = out
+            self._memo[key] = out if shared is None else SHARED.put(shared, out)
         return out
+
+    def _grid_state_key(self) -> str:
+        """:func:`state_key` of what the grids depend on: the whole state but the calibration
+        choice (it sets the beams' radar constant, after the grids: a study's run under the
+        other calibration takes the estimate's grids) and the ideal copy (made from the same
+        parameters)."""
+        state = self.__getstate__()
+        state.pop("_ideal", None)
+        state["p"] = {k: v for k, v in state["p"].items() if k != "calibration"}
+        return state_key(self, state)
 
     def fields_at(
         self,

@@ -21,11 +21,15 @@ import numpy as np
 import pytest
 import xarray as xr
 from pasim_blocks.antennas.cylindrical import CylindricalArray, taylor_continuous
+from pasim_blocks.antennas.geometry import face_geometry, patch_field
+from pasim_blocks.antennas.measured import TabulatedPattern
 from pasim_blocks.antennas.measures import first_sidelobe_db, half_power_beamwidth_deg
+from pasim_blocks.antennas.pattern_files import write_pattern_file
 from pasim_blocks.antennas.planar import PlanarPatchArray
 from scipy.signal.windows import taylor
 
 from pasim_graph import Chunk
+from pasim_graph.memo import SHARED
 
 from ..conftest import GRAPHS, assert_chunk_grids_are_each_beams_fields, run_cli
 
@@ -137,6 +141,68 @@ def test_offsets_are_cached_and_dropped_when_pickled(cppar10) -> None:
     assert clone._memo is None
     again = patterns(clone, az[:3])
     np.testing.assert_array_equal(again["power"].values, pattern["power"].values[:3])
+
+
+def test_grids_are_shared_by_equal_arrays_only(tmp_path) -> None:
+    """A study's next run (or a worker's) builds the same array again: it takes the grids the
+    first instance made (the same read-only arrays, bit-identical to its own; under the other
+    calibration too), while an array differing in a parameter, in its element file's contents
+    (same path, edited between runs) or drawing random channel errors computes its own."""
+    SHARED.clear()
+    common = {"grid_step_deg": 0.1, "support_deg": 3.0}
+    az = [240.3, 241.1, 242.4]
+    first = CylindricalArray(name="a", **common)
+    a = patterns(first, az)
+    again = CylindricalArray(name="a", **common)
+    assert pickle.loads(pickle.dumps(again))._memo is None
+    b = patterns(again, az)
+    assert SHARED.hits >= 3
+    beam_keys = [k for k in again._memo if k[2] == 0.5]  # not the reference made in set-up
+    assert beam_keys and all(again._memo[k] is first._memo[k] for k in beam_keys)
+    assert not again._memo[beam_keys[0]].flags.writeable
+    np.testing.assert_array_equal(a["co_polar"].values, b["co_polar"].values)
+    SHARED.clear()  # a fresh instance, nothing shared: the same bits
+    alone = patterns(CylindricalArray(name="a", **common), az)
+    np.testing.assert_array_equal(a["co_polar"].values, alone["co_polar"].values)
+
+    other = patterns(CylindricalArray(name="a", taylor_sll_db=-25.0, **common), az)
+    assert not np.array_equal(a["co_polar"].values, other["co_polar"].values)
+
+    # The calibration choice sets the radar constant, not the grids: an array under the
+    # other one (a study's calibration run) takes them, and made alone they are the same.
+    hits = SHARED.hits
+    boresight = CylindricalArray(name="a", calibration="boresight", **common)
+    taken = patterns(boresight, az)
+    assert SHARED.hits > hits
+    SHARED.clear()
+    own = patterns(CylindricalArray(name="a", calibration="boresight", **common), az)
+    np.testing.assert_array_equal(taken["co_polar"].values, own["co_polar"].values)
+    np.testing.assert_array_equal(taken["co_polar"].values, a["co_polar"].values)
+
+    hits = SHARED.hits
+    errors = {"phase_error_deg": 5.0, "amplitude_error_db": 0.5}
+    drawn = [CylindricalArray(name="a", **errors, **common) for _ in range(2)]
+    for block in drawn:
+        patterns(block, az)
+    assert SHARED.hits == hits  # random electronics: nothing kept, nothing taken
+
+    size = 0.0524 * 2.8e9 / C
+    el = np.arange(-60.0, 60.001, 1.0)
+    azimuths = np.arange(-90.0, 90.001, 1.0)
+    f = patch_field(face_geometry(azimuths[None, :], el[:, None], 0.0, 0.0), size)
+    shape = (el.size, azimuths.size)
+    path = tmp_path / "element.csv"
+    out = []
+    for tilt in (0.0, 0.5):  # the file edited between two runs of the same graph
+        gain = np.exp(tilt * np.deg2rad(azimuths))[None, :]
+        values = np.stack([np.broadcast_to(np.asarray(c, complex), shape) * gain for c in f])
+        write_pattern_file(path, TabulatedPattern(azimuths, el, values))
+        block = CylindricalArray(name="a", element="file", element_file=str(path), **common)
+        resource = block.load()
+        b = beams(az)
+        chunk = Chunk(beams=np.arange(len(az)), resource=resource)
+        out.append(block.process({"beams": b}, chunk)["pattern"]["co_polar"].values)
+    assert not np.array_equal(out[0], out[1])
 
 
 # ---- H / V ------------------------------------------------------------------------------------

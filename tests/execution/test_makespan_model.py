@@ -191,3 +191,23 @@ def test_a_run_s_first_use_is_what_its_leading_chunks_took_beyond_a_typical_one(
     assert bench.leading_excess(spans) == pytest.approx(2.5)
     assert bench.leading_excess([0.1, 0.3, 0.2]) == 0.0  # a first chunk below typical
     assert bench.leading_excess([2.0]) == 0.0
+
+
+def test_a_baseline_checkout_on_the_path_alone_is_refused(bench, tmp_path):
+    """A checkout's block library (``blocks/``) is found as ``pasim_blocks`` only through an
+    install: a baseline given by PYTHONPATH alone would run this build's blocks, so the
+    benchmark names the package that would come from elsewhere."""
+    import sys
+
+    checkout = tmp_path / "checkout"
+    for package in ("pasim_graph", "blocks"):
+        (checkout / package).mkdir(parents=True)
+        (checkout / package / "__init__.py").write_text("")
+    import pasim_blocks
+
+    message = bench.foreign_packages(sys.executable, str(checkout))
+    assert pasim_blocks.__file__ in message and "pasim_graph" not in message
+    assert "--baseline-python" in message
+    (checkout / "pasim_blocks").mkdir()
+    (checkout / "pasim_blocks" / "__init__.py").write_text("")
+    assert bench.foreign_packages(sys.executable, str(checkout)) == ""
