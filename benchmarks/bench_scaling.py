@@ -39,6 +39,7 @@ Prints JSON lines (and appends them to ``--out``) and a summary.
 from __future__ import annotations
 
 import argparse
+import calendar
 import heapq
 import itertools
 import json
@@ -69,6 +70,7 @@ def timed(cmd: list[str], env: dict[str, str]) -> dict[str, Any]:
     """Run ``cmd``; its wall time, the CPU seconds of it and all its descendants, the load."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     load = os.getloadavg()[0]
+    began = time.time()
     t0 = time.perf_counter()
     # Not from the repository: `python -m` puts the working folder first on the path, and a
     # baseline interpreter would import this checkout's engine instead of its own.
@@ -79,6 +81,7 @@ def timed(cmd: list[str], env: dict[str, str]) -> dict[str, Any]:
     if proc.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed:\n{proc.stderr[-3000:]}")
     return {
+        "began": began,
         "wall_s": wall,
         "cpu_s": cpu,
         "load_before": load,
@@ -313,22 +316,25 @@ def predict(model: dict, workers: int, cores: int | None = None) -> dict:
 
 
 def study_model(row: dict) -> dict:
-    """The study at one worker: its work (every run's set-up steps and chunk tasks, and the
-    antenna and hardware measurements, tasks beside them: wall time), the report's figures
-    (tasks too, once the runs are done), the rest (start-up, scoring, the report's page: one
-    after another), the CPU that ran beside the work (the workers' tasks and the ``pasim``
-    process's own share: set-up, scoring, the scheduler), and each run's beams and first use
-    (:func:`leading_excess`: the run's memos, which every further worker it reaches fills
-    again), and what starting a worker cost (its process's CPU before its first task:
-    imports, warm-up, the first run's inputs; every further worker pays it again)."""
+    """The study at one worker: its work (every run's chunk tasks, and the antenna and
+    hardware measurements, tasks beside them: wall time), its runs' set-ups (their steps in
+    the `pasim` process, one lane beside the workers), the report's figures (tasks too, once
+    the runs are done), the rest (start-up, scoring, the report's page: what no run overlaps,
+    from the study's start and the runs' records), the CPU that ran beside the work (the
+    workers' tasks and the ``pasim`` process's own share: set-up, scoring, the scheduler),
+    each run's beams and first use (:func:`leading_excess`: the run's memos, which every
+    further worker it reaches fills again), and what starting a worker cost (its process's
+    CPU before its first task: imports, warm-up, the first run's inputs; every further worker
+    pays it again)."""
     work = row.get("measure_s", 0.0)
+    setups = 0.0
     runs = []
     started: dict[str, float] = {}
     for r in row["records"]:
         # The set-up steps; not the cluster's connection (shared) nor the chunk phase, whose
         # tasks are counted one by one below.
         setup = [s for s in r["steps"] if s["kind"] not in ("connect", "chunks")]
-        work += sum(s["stop"] - s["start"] for s in setup)
+        setups += sum(s["stop"] - s["start"] for s in setup)
         tasks = sorted(r["tasks"], key=lambda t: t["start"])
         spans = [t["stop"] - t["start"] for t in tasks]
         work += sum(spans)
@@ -340,9 +346,20 @@ def study_model(row: dict) -> dict:
                 w = t["worker"]
                 started[w] = min(started.get(w, t["worker_cpu_s"]), t["worker_cpu_s"])
     figures_s = row.get("figures_s", 0.0)
-    rest = max(row["wall_s"] - work - figures_s, 0.0)
+    rest = max(row["wall_s"] - max(work, setups) - figures_s, 0.0)
+    began = study_began(row)
+    if began is not None and row["records"]:
+        # What no run overlaps: before the first run's set-up (start-up, the study's plan,
+        # the cluster) and after the last run's last chunk (scores, the report less its
+        # figures). The residual above is nil where the runs' set-ups in the `pasim` process
+        # overlap the worker's chunks, as they do on one worker.
+        spans = [(r["started"], r["started"] + r["stopped"]) for r in row["records"]]
+        head = min(a for a, _ in spans) - began
+        tail = began + row["wall_s"] - max(b for _, b in spans) - figures_s
+        rest = max(head, 0.0) + max(tail, 0.0)
     return {
         "work_s": work,
+        "setup_s": setups,
         "figures_s": figures_s,
         "figures": row.get("figures", 0),
         "rest_s": rest,
@@ -350,6 +367,17 @@ def study_model(row: dict) -> dict:
         "start_cpu_s": statistics.median(started.values()) if started else 0.0,
         "runs": runs,
     }
+
+
+def study_began(row: dict) -> float | None:
+    """When the study's process started (epoch s): recorded, or for rows written before it
+    was, their end (``date``, to the second) less their wall time."""
+    if "began" in row:
+        return float(row["began"])
+    if "date" not in row:
+        return None
+    ended = calendar.timegm(time.strptime(row["date"], "%Y-%m-%dT%H:%M:%SZ"))
+    return ended - row["wall_s"]
 
 
 def leading_excess(spans: list[float]) -> float:
@@ -389,12 +417,17 @@ def paid_again(model: dict, workers: int) -> float:
 def predict_study(model: dict, workers: int, cores: int | None = None) -> float:
     """Runs overlapped: the rest one after another, the work spread over the workers with the
     first uses they pay again and each further worker's start-up (but never faster than the
-    cores can give the CPU that runs beside it; ``cores``: the machine's, one a worker when
-    not given), then the report's figures spread over them."""
+    runs' set-ups in the `pasim` process, nor than the cores can give the CPU that runs beside
+    it; ``cores``: the machine's, one a worker when not given), then the report's figures
+    spread over them."""
     cores = cores or workers
     again = paid_again(model, workers)
     figures = model.get("figures_s", 0.0) / max(1, min(workers, model.get("figures", 1) or 1))
-    work = max((model["work_s"] + again) / workers, (model["beside_cpu_s"] + again) / cores)
+    work = max(
+        (model["work_s"] + again) / workers,
+        model.get("setup_s", 0.0),
+        (model["beside_cpu_s"] + again) / cores,
+    )
     return model["rest_s"] + work + figures
 
 

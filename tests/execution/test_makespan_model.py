@@ -72,10 +72,11 @@ def test_two_workers_on_two_cores_cannot_beat_the_cpu_they_need(bench):
 
 
 def test_the_study_model_counts_set_up_steps_and_tasks_once(bench):
-    """A one-worker study of two runs (made up): each run's set-up steps (load, layout) and its
-    tasks are the work; the cluster's connection and the chunk phase (a step spanning the
-    tasks) are not counted again. Work 2 x (0.5 + 1.5 + 3 x 2) = 16 s; 20 s of wall leave a
-    rest of 4 s; 30 s of CPU, 26 beside the work: 2 workers on 2 cores, 4 + max(8, 13)."""
+    """A one-worker study of two runs (made up): each run's set-up steps (load, layout) are the
+    `pasim` process's lane, its tasks the workers' work; the cluster's connection and the chunk
+    phase (a step spanning the tasks) are not counted again. Work 2 x 3 x 2 = 12 s, set-ups
+    2 x (0.5 + 1.5) = 4 s; 20 s of wall leave a rest of 8 s (no start time recorded: the
+    residual); 30 s of CPU, 22 beside the work: 2 workers on 2 cores, 8 + max(6, 4, 11)."""
     run = {
         "steps": [
             {"kind": "load", "start": 0.0, "stop": 0.5},
@@ -87,15 +88,36 @@ def test_the_study_model_counts_set_up_steps_and_tasks_once(bench):
     }
     model = bench.study_model({"records": [run, run], "wall_s": 20.0, "cpu_s": 30.0})
     assert model == {
-        "work_s": 16.0,
+        "work_s": 12.0,
+        "setup_s": 4.0,
         "figures_s": 0.0,
         "figures": 0,
-        "rest_s": 4.0,
-        "beside_cpu_s": 26.0,
+        "rest_s": 8.0,
+        "beside_cpu_s": 22.0,
         "start_cpu_s": 0.0,  # a record from before the workers' CPU was kept
         "runs": [(0, 0.0), (0, 0.0)],  # no beams recorded, and no first use
     }
-    assert bench.predict_study(model, 2, 2) == 17.0
+    assert bench.predict_study(model, 2, 2) == 19.0
+    # The runs' set-ups bound it from below, however many workers share the work.
+    assert bench.predict_study(model, 100) == 8.0 + 4.0
+
+
+def test_the_study_s_rest_is_what_no_run_overlaps(bench):
+    """With the study's start known (``began``, or its end ``date`` less its wall time), the
+    rest is the time before the first run began and after the last one's last chunk, less the
+    report's figures: here 3 s before, 20 - 14 - 2 = 4 s after. (The residual, wall less work,
+    set-ups and figures, would be nil: on one worker the set-ups overlap the chunks.)"""
+    runs = [
+        {"started": 1000.0 + 3.0 + 5.0 * k, "stopped": 6.0, "steps": [], "tasks": []}
+        for k in range(2)
+    ]
+    row = {"records": runs, "wall_s": 20.0, "cpu_s": 20.0, "figures_s": 2.0, "began": 1000.0}
+    assert bench.study_model(row)["rest_s"] == 7.0
+    dated = {k: v for k, v in row.items() if k != "began"} | {"date": "2026-11-29T08:35:15Z"}
+    ended = 1795941315.0  # that date, in epoch seconds
+    for run in runs:
+        run["started"] += ended - 1020.0
+    assert bench.study_model(dated)["rest_s"] == pytest.approx(7.0)
 
 
 def test_a_run_reaching_more_workers_pays_its_first_use_on_each(bench):
@@ -128,18 +150,19 @@ def test_a_run_reaching_more_workers_pays_its_first_use_on_each(bench):
 def test_the_study_model_spreads_measurements_and_figures(bench):
     """Two runs of 0.5 s of set-up and 3 x 2 s of tasks, 2 s of antenna measurements (tasks
     beside the runs: work) and a report of 3 figures drawn in 3 s (tasks after the runs), in
-    25 s of wall and 35 s of CPU: work 2 x 6.5 + 2 = 15, rest 25 - 15 - 3 = 7, beside
-    35 - 7 - 3 = 25. On 2 workers and cores: 7 + max(7.5, 12.5) + 3 / 2; on 16, a core each:
-    7 + 25 / 16 + 3 / 3 (no more than one worker a figure)."""
+    25 s of wall and 35 s of CPU: work 2 x 6 + 2 = 14, set-ups 1, rest 25 - 14 - 3 = 8, beside
+    35 - 8 - 3 = 24. On 2 workers and cores: 8 + max(7, 1, 12) + 3 / 2; on 16, a core each:
+    8 + max(14 / 16, 1, 24 / 16) + 3 / 3 (no more than one worker a figure)."""
     run = {
         "steps": [{"kind": "load", "start": 0.0, "stop": 0.5}],
         "tasks": [{"start": 3.0 + 2 * i, "stop": 5.0 + 2 * i} for i in range(3)],
     }
     row = {"records": [run, run], "wall_s": 25.0, "cpu_s": 35.0, "measure_s": 2.0}
     model = bench.study_model({**row, "figures": 3, "figures_s": 3.0})
-    assert model["work_s"] == 15.0 and model["rest_s"] == 7.0 and model["beside_cpu_s"] == 25.0
-    assert bench.predict_study(model, 2, 2) == pytest.approx(7.0 + 12.5 + 1.5)
-    assert bench.predict_study(model, 16) == pytest.approx(7.0 + 25.0 / 16 + 1.0)
+    assert model["work_s"] == 14.0 and model["setup_s"] == 1.0
+    assert model["rest_s"] == 8.0 and model["beside_cpu_s"] == 24.0
+    assert bench.predict_study(model, 2, 2) == pytest.approx(8.0 + 12.0 + 1.5)
+    assert bench.predict_study(model, 16) == pytest.approx(8.0 + 24.0 / 16 + 1.0)
     # The report line and the measurement lines the study prints are what the benchmark reads.
     err = (
         "measured the antenna of a/b/-: 1.5 s\nmeasured the hardware of a: 0.5 s\n"
