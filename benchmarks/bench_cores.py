@@ -13,7 +13,12 @@ and set-up are left out as in `bench_scaling.py`.
     ceiling = (chunks of half A alone + chunks of half B alone) / max(chunks of A, B together)
 
 A ceiling below 2 on two cores says the cores slow each other down (shared memory bandwidth,
-shared cache, a hypervisor's clock); the same loss holds for two Dask workers. A pure-Python
+shared cache, a hypervisor's clock), or that the halves cost unequal times (each half's own
+``slowdown``, together over alone, tells the two apart); the same loss holds for two Dask
+workers. Without the store and the runs' set-up, ``compute`` rows time the whole sector's
+chunks computed by the graph's blocks in one process, alone and then in two processes at once
+(each all of them): ``ceiling`` = 2 x alone / the slower of the two, ``cpu_rise`` the
+processes' own CPU for the same work, together over alone. A pure-Python
 loop (no memory traffic) is measured the same way as a reference for what the cores give
 when nothing is shared. Prints JSON lines (and appends them to ``--out``).
 """
@@ -101,6 +106,54 @@ def runs(args: argparse.Namespace, sectors: list[str], tmp: Path, tag: str) -> l
     return [chunk_phase(s) for s in stores]
 
 
+#: One process's share of ``compute_only``: the sector's chunks computed by the graph's
+#: blocks in this process (no Dask, no store), timed from a common start.
+_COMPUTE = """
+import json, os, sys, time
+from pasim_graph import load
+from pasim_graph.executor import LocalExecutor, RunOptions, chunks
+start, stop = (float(v) for v in sys.argv[2].split(":"))
+graph = load(sys.argv[1], {"scan.azimuth_start_deg": start, "scan.azimuth_stop_deg": stop})
+ex = LocalExecutor(graph, RunOptions(seed=0, chunk_beams=8))
+ex.load()
+static = ex.run_static()
+every = list(chunks(ex.plan.beam_count, 8))
+ex.run_chunk(static, every[0])  # imports and first use, before the clock
+print("ready", flush=True)
+sys.stdin.readline()
+t, c = time.perf_counter(), time.thread_time()
+for beams in every:
+    ex.run_chunk(static, beams)
+print(json.dumps({"wall_s": time.perf_counter() - t, "cpu_s": time.thread_time() - c}))
+"""
+
+
+def compute_only(args: argparse.Namespace, copies: int) -> list[dict[str, float]]:
+    """The whole sector's chunks computed in ``copies`` processes at once, each all of them
+    (single-threaded BLAS, as a Dask worker runs), started together once all are ready."""
+    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    cmd = [sys.executable, "-c", _COMPUTE, args.graph, args.sector]
+    procs = [
+        subprocess.Popen(
+            cmd,
+            cwd=tempfile.gettempdir(),
+            env=env,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
+        for _ in range(copies)
+    ]
+    for p in procs:
+        assert p.stdout is not None and p.stdout.readline().strip() == "ready"
+    for p in procs:
+        assert p.stdin is not None
+        p.stdin.write("go\n")
+        p.stdin.flush()
+    return [json.loads(p.communicate()[0]) for p in procs]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--graph", default=str(ROOT / "graphs" / "generic_radar.yaml"))
@@ -126,7 +179,24 @@ def main() -> None:
                     "halves": halves,
                     "alone_s": alone,
                     "together_s": together,
+                    # each half's own slowdown: the halves' costs differ, so the ceiling
+                    # is held down by their imbalance as well as by the cores
+                    "slowdown": [b / a for a, b in zip(alone, together, strict=True)],
                     "ceiling": sum(alone) / max(together),
+                    "load_before": load,
+                    "load_after": os.getloadavg()[0],
+                }
+            )
+            one = compute_only(args, 1)[0]
+            two = compute_only(args, 2)
+            rows.append(
+                {
+                    "case": "compute",
+                    "sector": args.sector,
+                    "alone": one,
+                    "together": two,
+                    "cpu_rise": sum(t["cpu_s"] for t in two) / 2 / one["cpu_s"],
+                    "ceiling": 2 * one["wall_s"] / max(t["wall_s"] for t in two),
                     "load_before": load,
                     "load_after": os.getloadavg()[0],
                 }

@@ -151,6 +151,20 @@ def neighbours_first(todo: list[int], streams: int) -> dict[int, int]:
     }
 
 
+def pinned_to(
+    todo: list[int], rank: dict[int, int], slots: list[str], share: float = 0.75
+) -> dict[int, list[str]]:
+    """The worker each chunk of the first ``share`` of every stream of neighbours
+    (:func:`neighbours_first`) is asked to run on: stream ``s`` on ``slots[s]``. The rest is
+    left to whichever worker is free (the streams' unequal costs are evened out there). No
+    slots (a cluster whose workers have yet to join): none asked."""
+    if not slots:
+        return {}
+    streams = max(1, min(len(slots), len(todo)))
+    per = -(-len(todo) // streams)
+    return {i: [slots[r % streams]] for i, r in rank.items() if r // streams < share * per}
+
+
 def compute_distributed(
     client: Any,
     sweeps: list[LocalExecutor],
@@ -192,8 +206,12 @@ def compute_distributed(
         shared = client.submit(_given, _Box(static), key=f"{own}-static")
     # Each chunk's priority: a run submitted earlier first (as the scheduler would order
     # whole graphs, first come first served: a study's earlier runs finish first), and in a
-    # run a free worker takes the chunk beside its last one (neighbours_first).
-    rank = neighbours_first(todo, sum(client.nthreads().values()))
+    # run a free worker takes the chunk beside its last one (neighbours_first), its own
+    # run's for the first three quarters of it even when another worker frees first
+    # (pinned_to: loose, a lost or busy worker's chunks go elsewhere).
+    slots = [w for w, n in sorted(client.nthreads().items()) for _ in range(n)]
+    rank = neighbours_first(todo, len(slots))
+    pinned = pinned_to(todo, rank, slots)
     submitted = time.time_ns() // 1_000_000
     futures = [
         client.submit(
@@ -208,6 +226,7 @@ def compute_distributed(
             own,
             key=keys[i],
             priority=-(submitted << 20) - min(rank[i], (1 << 20) - 1),
+            **({"workers": pinned[i], "allow_other_workers": True} if i in pinned else {}),
         )
         for i in todo
     ]
