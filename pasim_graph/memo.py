@@ -2,9 +2,9 @@
 
 A block memoises what it derives from its parameters (a cylindrical array's pattern grid for
 each beam offset) on its instance, which lives as long as its run. A study runs the same block
-again and again (each system's seeds, its expected-value run, its measurements), and a worker
-runs chunks of many runs: each new instance filled its memo again (the 2 m CPPAR's 75 grids,
-about 2.5 s of CPU, in every run on every worker: docs/scaling.md). :class:`SharedResults`
+again and again (each system's seeds, its runs under each calibration), and a worker runs
+chunks of many runs: each new instance filled its memo again (the 2 m CPPAR's grids, 5 s of
+CPU in each 90 deg run, on every worker: docs/scaling.md). :class:`SharedResults`
 keeps such results for the whole process, keyed by the block's whole state
 (:func:`state_key`, a hash of the block as it is pickled) and the block's own key.
 
