@@ -346,17 +346,17 @@ def study_model(row: dict) -> dict:
                 w = t["worker"]
                 started[w] = min(started.get(w, t["worker_cpu_s"]), t["worker_cpu_s"])
     figures_s = row.get("figures_s", 0.0)
-    rest = max(row["wall_s"] - max(work, setups) - figures_s, 0.0)
     began = study_began(row)
     if began is not None and row["records"]:
         # What no run overlaps: before the first run's set-up (start-up, the study's plan,
         # the cluster) and after the last run's last chunk (scores, the report less its
-        # figures). The residual above is nil where the runs' set-ups in the `pasim` process
+        # figures). The residual below is nil where the runs' set-ups in the `pasim` process
         # overlap the worker's chunks, as they do on one worker.
-        spans = [(r["started"], r["started"] + r["stopped"]) for r in row["records"]]
-        head = min(a for a, _ in spans) - began
-        tail = began + row["wall_s"] - max(b for _, b in spans) - figures_s
-        rest = max(head, 0.0) + max(tail, 0.0)
+        first = min(r["started"] for r in row["records"])
+        last = max(r["started"] + r["stopped"] for r in row["records"])
+        rest = max(first - began, 0.0) + max(began + row["wall_s"] - last - figures_s, 0.0)
+    else:
+        rest = max(row["wall_s"] - max(work, setups) - figures_s, 0.0)
     return {
         "work_s": work,
         "setup_s": setups,

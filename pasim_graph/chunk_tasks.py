@@ -142,7 +142,7 @@ def neighbours_first(todo: list[int], streams: int) -> dict[int, int]:
     (``TruthCells`` prepares it by blocks of radials, as beams reach them). Interleaved runs
     hand each slot, as long as the slots free up in turn, the chunk after its last one.
     """
-    streams = max(1, min(streams, len(todo)))
+    streams = stream_count(streams, len(todo))
     edges = np.linspace(0, len(todo), streams + 1).round().astype(int)
     return {
         i: j * streams + s
@@ -151,17 +151,21 @@ def neighbours_first(todo: list[int], streams: int) -> dict[int, int]:
     }
 
 
-def pinned_to(
-    todo: list[int], rank: dict[int, int], slots: list[str], share: float = 0.75
-) -> dict[int, list[str]]:
-    """The worker each chunk of the first ``share`` of every stream of neighbours
-    (:func:`neighbours_first`) is asked to run on: stream ``s`` on ``slots[s]``. The rest is
-    left to whichever worker is free (the streams' unequal costs are evened out there). No
-    slots (a cluster whose workers have yet to join): none asked."""
+def stream_count(slots: int, chunks: int) -> int:
+    """How many runs of neighbours ``chunks`` chunks are cut into for ``slots`` slots (one at
+    least, and none empty)."""
+    return max(1, min(slots, chunks))
+
+
+def pinned_to(rank: dict[int, int], slots: list[str], share: float = 0.75) -> dict[int, list[str]]:
+    """The worker each chunk of the first ``share`` of every run of neighbours (``rank``, from
+    :func:`neighbours_first` for ``len(slots)`` slots) is asked to run on: run ``s`` on
+    ``slots[s]``. The rest is left to whichever worker is free (the runs' unequal costs are
+    evened out there). No slots (a cluster whose workers have yet to join): none asked."""
     if not slots:
         return {}
-    streams = max(1, min(len(slots), len(todo)))
-    per = -(-len(todo) // streams)
+    streams = stream_count(len(slots), len(rank))
+    per = -(-len(rank) // streams)
     return {i: [slots[r % streams]] for i, r in rank.items() if r // streams < share * per}
 
 
@@ -211,7 +215,7 @@ def compute_distributed(
     # (pinned_to: loose, a lost or busy worker's chunks go elsewhere).
     slots = [w for w, n in sorted(client.nthreads().items()) for _ in range(n)]
     rank = neighbours_first(todo, len(slots))
-    pinned = pinned_to(todo, rank, slots)
+    pinned = pinned_to(rank, slots)
     submitted = time.time_ns() // 1_000_000
     futures = [
         client.submit(

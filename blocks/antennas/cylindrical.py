@@ -334,10 +334,11 @@ class CylindricalArray(ArrayAntenna):
         # the array's state is fixed, and the process's later runs of an equal array (a
         # study's seeds and reference run, a worker's next run) find its grids in SHARED.
         key = (-1, step, round(el_deg, 9))
-        if not self.channel.random and key in self._memo:
+        kept_here = not self.channel.random
+        if kept_here and key in self._memo:
             return self._memo[key]
         shared = None
-        if not self.channel.random and self.prepared:
+        if kept_here and self.prepared:
             if self._state is None:
                 self._state = self._grid_state_key()
             shared = (self._state, key)
@@ -364,7 +365,7 @@ class CylindricalArray(ArrayAntenna):
             kernel = np.zeros((1, (n - 1) * per + 1), complex)
             kernel[0, ::per] = weights[i // 2]
             out[i] = vertical * fftconvolve(f, kernel, mode="valid", axes=1)
-        if not self.channel.random:
+        if kept_here:
             self._memo[key] = out if shared is None else SHARED.put(shared, out)
         return out
 

@@ -59,14 +59,14 @@ def test_the_first_three_quarters_of_each_run_of_neighbours_ask_for_its_worker()
     from pasim_graph.chunk_tasks import neighbours_first, pinned_to
 
     todo = [3, 4, 5, 6, 7, 8, 9, 10, 11, 12]
-    pinned = pinned_to(todo, neighbours_first(todo, 2), ["tcp://a", "tcp://b"])
+    pinned = pinned_to(neighbours_first(todo, 2), ["tcp://a", "tcp://b"])
     assert pinned == {i: ["tcp://a"] for i in (3, 4, 5, 6)} | {
         i: ["tcp://b"] for i in (8, 9, 10, 11)
     }
     slots = ["tcp://a", "tcp://a", "tcp://b"]
-    three = pinned_to(list(range(12)), neighbours_first(list(range(12)), 3), slots)
+    three = pinned_to(neighbours_first(list(range(12)), 3), slots)
     assert three == {0: ["tcp://a"], 1: ["tcp://a"], 2: ["tcp://a"]} | {
         i: ["tcp://a"] for i in (4, 5, 6)
     } | {i: ["tcp://b"] for i in (8, 9, 10)}
-    assert pinned_to([7], {7: 0}, ["tcp://a", "tcp://b"]) == {7: ["tcp://a"]}
-    assert pinned_to(todo, neighbours_first(todo, 1), []) == {}  # no worker has joined yet
+    assert pinned_to({7: 0}, ["tcp://a", "tcp://b"]) == {7: ["tcp://a"]}
+    assert pinned_to(neighbours_first(todo, 1), []) == {}  # no worker has joined yet
