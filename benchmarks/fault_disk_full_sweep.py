@@ -19,6 +19,7 @@ import numpy as np
 import xarray as xr
 import zarr.storage._local as zlocal
 
+import pasim_graph.store.writes as writes
 from pasim_graph.cli import main
 from pasim_graph.store import is_store, run_state
 
@@ -38,33 +39,41 @@ def sweep(path: Path) -> xr.Dataset:
     return xr.open_datatree(path, engine="zarr")["sweep_0"].to_dataset()
 
 
+#: Every file write of a store: zarr's (layout, metadata) and the chunk files'.
+REAL = {zlocal: ("_put", zlocal._put), writes: ("put_file", writes.put_file)}
+
+
+def patched(seen: list[int], fail_at: int | None) -> None:
+    """Each file write counted in ``seen``, failing with ENOSPC from the ``fail_at``-th."""
+    for module, (name, real) in REAL.items():
+
+        def write(*args, _real=real, **kwargs):
+            seen[0] += 1
+            if fail_at is not None and seen[0] >= fail_at:
+                raise OSError(28, "No space left on device")
+            return _real(*args, **kwargs)
+
+        setattr(module, name, write)
+
+
+def restored() -> None:
+    for module, (name, real) in REAL.items():
+        setattr(module, name, real)
+
+
 def run() -> int:
-    real = zlocal._put
     calls = [0]
-
-    def counting(*args, **kwargs):
-        calls[0] += 1
-        return real(*args, **kwargs)
-
     work = Path(tempfile.mkdtemp())
-    zlocal._put = counting
+    patched(calls, None)
     quiet([*RUN, "--out", str(work / "ref.zarr")])
-    zlocal._put = real
+    restored()
     total, ref = calls[0], sweep(work / "ref.zarr")
     bad = []
     for n in range(1, total + 1):
-        seen = [0]
-
-        def failing(*args, _n=n, _seen=seen, **kwargs):
-            _seen[0] += 1
-            if _seen[0] >= _n:
-                raise OSError(28, "No space left on device")
-            return real(*args, **kwargs)
-
         out = work / f"n{n}.zarr"
-        zlocal._put = failing
+        patched([0], n)
         code, err = quiet([*RUN, "--out", str(out)])
-        zlocal._put = real
+        restored()
         resumable = out.exists() and is_store(out) and run_state(out) is not None
         code2, err2 = quiet([*RUN, "--out", str(out), *(["--resume"] if resumable else [])])
         got = sweep(out) if code2 == 0 else None

@@ -1,21 +1,24 @@
 """A disk that fills at any moment of a run ends it cleanly and loses nothing written.
 
-The fault is injected where zarr writes a file (``zarr.storage._local._put``, the one place
-its local store writes bytes): after N files an ``OSError(ENOSPC)``, as a full file system
-raises it. For N from the store's creation through its chunks to the final consolidation,
-the run exits 2 naming the store, the free space and the way on, with no traceback; the
-store is then either absent (nothing was kept) or incomplete and resumable; ``--resume``
-with the space back gives a store identical to an uninterrupted run's.
+The fault is injected where a file of the store is written: zarr's file write
+(``zarr.storage._local._put``: the layout, metadata, consolidation) and the chunk files'
+(``pasim_graph.store.writes.put_file``): after N files an ``OSError(ENOSPC)``, as a full file
+system raises it. For N from the store's creation through its chunks to the final
+consolidation, the run exits 2 naming the store, the free space and the way on, with no
+traceback; the store is then either absent (nothing was kept) or incomplete and resumable;
+``--resume`` with the space back gives a store identical to an uninterrupted run's.
 """
 
 from __future__ import annotations
 
 import errno
 import threading
+from typing import ClassVar
 
 import pytest
 import zarr.storage._local as zlocal
 
+import pasim_graph.store.writes as writes
 from pasim_graph.cli import main
 from pasim_graph.store import is_store, run_state
 
@@ -33,32 +36,41 @@ def reference(tmp_path_factory):
 
 
 def count_writes(monkeypatch, tmp_path, capsys) -> int:
-    calls = [0]
-    real = zlocal._put
-
-    def counting(*args, **kwargs):
-        calls[0] += 1
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(zlocal, "_put", counting)
+    disk = FullAfter(None)
+    disk.install(monkeypatch)
     assert pasim(capsys, *RUN, "--out", str(tmp_path / "count.zarr"))[0] == 0
-    monkeypatch.setattr(zlocal, "_put", real)
-    return calls[0]
+    disk.remove(monkeypatch)
+    return disk.calls
 
 
 class FullAfter:
-    """zarr's file write, failing with ENOSPC from the n-th call on (threads share it)."""
+    """Every file write of a store (zarr's and the chunk files'), failing with ENOSPC from
+    the n-th on (threads share the count); None: never."""
 
-    def __init__(self, n: int, real):
-        self.n, self.real, self.calls, self.lock = n, real, 0, threading.Lock()
+    REAL: ClassVar = {zlocal: zlocal._put, writes: writes.put_file}
+    NAME: ClassVar = {zlocal: "_put", writes: "put_file"}
 
-    def __call__(self, *args, **kwargs):
-        with self.lock:
-            self.calls += 1
-            hit = self.calls >= self.n
-        if hit:
-            raise OSError(errno.ENOSPC, "No space left on device")
-        return self.real(*args, **kwargs)
+    def __init__(self, n: int | None):
+        self.n, self.calls, self.lock = n, 0, threading.Lock()
+
+    def wrap(self, real):
+        def write(*args, **kwargs):
+            with self.lock:
+                self.calls += 1
+                hit = self.n is not None and self.calls >= self.n
+            if hit:
+                raise OSError(errno.ENOSPC, "No space left on device")
+            return real(*args, **kwargs)
+
+        return write
+
+    def install(self, monkeypatch) -> None:
+        for module, real in self.REAL.items():
+            monkeypatch.setattr(module, self.NAME[module], self.wrap(real))
+
+    def remove(self, monkeypatch) -> None:
+        for module, real in self.REAL.items():
+            monkeypatch.setattr(module, self.NAME[module], real)
 
 
 # Eight writes in the default suite (the template's, a spread through the chunks, the last
@@ -69,7 +81,6 @@ def test_disk_full_at_every_stage_exits_2_and_resume_completes(
 ):
     total = count_writes(monkeypatch, tmp_path, capsys)
     assert total > 50
-    real = zlocal._put
     # the first writes (the template), a spread through the chunks, and the very last ones
     points = {1, 5, total // 4, total // 2, 3 * total // 4, total - 2, total - 1, total}
     if spread == "every":
@@ -79,9 +90,10 @@ def test_disk_full_at_every_stage_exits_2_and_resume_completes(
     for n in points:
         out = tmp_path / f"full{n}.zarr"
 
-        monkeypatch.setattr(zlocal, "_put", FullAfter(n, real))
+        disk = FullAfter(n)
+        disk.install(monkeypatch)
         code, err = pasim(capsys, *RUN, "--out", str(out))
-        monkeypatch.setattr(zlocal, "_put", real)
+        disk.remove(monkeypatch)
         assert code == 2, f"write {n}: {err}"
         assert "Traceback" not in err, err
         assert f"{out}: the disk is full" in err and "free" in err, err

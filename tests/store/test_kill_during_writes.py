@@ -2,8 +2,10 @@
 leaves a store that ``--resume`` completes, identical to an uninterrupted run's, with its
 metadata consolidated.
 
-The kill is made where zarr writes a file (``zarr.storage._local._put``): a child process
-exits with ``os._exit(137)`` (what -9 leaves: no cleanup, no flush) at its N-th write.
+The kill is made where a file of the store is written (zarr's ``zarr.storage._local._put``:
+the layout, metadata and consolidation; ``pasim_graph.store.writes.put_file``: the chunk files
+and their done flags): a child process exits with ``os._exit(137)`` (what -9 leaves: no
+cleanup, no flush) at its N-th write.
 """
 
 from __future__ import annotations
@@ -27,13 +29,16 @@ RUN += ["--set", "scan.pulses=16", "--chunk", "2", "--seed", "9"]
 CHILD = """
 import os, sys
 import zarr.storage._local as z
-real, n, kill_at = z._put, [0], int(sys.argv[1])
-def put(*a, **k):
-    n[0] += 1
-    if n[0] == kill_at:
-        os._exit(137)
-    return real(*a, **k)
-z._put = put
+import pasim_graph.store.writes as w
+n, kill_at = [0], int(sys.argv[1])
+def killing(real):
+    def put(*a, **k):
+        n[0] += 1
+        if n[0] == kill_at:
+            os._exit(137)
+        return real(*a, **k)
+    return put
+z._put, w.put_file = killing(z._put), killing(w.put_file)
 if kill_at == 0:
     import atexit
     atexit.register(lambda: print(n[0], file=sys.stderr))

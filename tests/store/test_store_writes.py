@@ -152,3 +152,81 @@ def test_a_new_layout_under_a_new_run_token_is_opened_afresh(tmp_path):
     assert back["DBZH"].dtype == np.float64
     np.testing.assert_array_equal(back["DBZH"].values[: 2 * CHUNK], wider["DBZH"].values)
     assert run_state(path)[1].tolist() == [1, 0]
+
+
+def test_a_chunk_file_is_replaced_whole_or_not_at_all(tmp_path):
+    """Chunk files of a local store are written in the calling thread (``put_file``), as
+    zarr's LocalStore writes them: into a fresh file beside the target, renamed over it. A
+    write that fails leaves the old bytes and no partial file; a missing folder is made."""
+    from pasim_graph.store.writes import put_file
+
+    target = tmp_path / "a" / "c" / "0" / "0"
+    put_file(str(target), b"first")  # its folders do not exist yet
+    assert target.read_bytes() == b"first"
+
+    class Broken:
+        def __buffer__(self, flags):
+            raise OSError("disk full")
+
+    try:
+        put_file(str(target), Broken())
+    except (OSError, TypeError):
+        pass
+    else:
+        raise AssertionError("a failed write must raise")
+    assert target.read_bytes() == b"first"
+    assert sorted(p.name for p in target.parent.iterdir()) == ["0"]
+
+
+def test_a_store_not_on_local_disk_is_written_through_zarr(tmp_path):
+    """Only zarr's own LocalStore is written file by file here; any other store (memory,
+    fsspec's remote ones) takes zarr's path and reads back the same."""
+    import zarr
+    from zarr.core.sync import sync
+    from zarr.storage import MemoryStore
+
+    from pasim_graph.store import encoding
+    from pasim_graph.store.writes import write_arrays
+
+    store = MemoryStore()
+    zarr.create_array(store, name="v", shape=(6, 5), chunks=(3, 5), **encoding(np.float32))
+    stored = sync(zarr.api.asynchronous.open_array(store=store, path="v"))
+    values = np.arange(30, dtype=np.float32).reshape(6, 5)
+    write_arrays([(stored, (slice(0, 3), slice(None)), values[:3])])
+    back = zarr.open_array(store, path="v")[...]
+    np.testing.assert_array_equal(back[:3], values[:3])
+    assert np.isnan(back[3:]).all()
+    assert not list(tmp_path.iterdir())  # nothing went to disk
+
+
+def test_a_failed_file_among_many_is_raised_once_all_have_ended(tmp_path, monkeypatch):
+    """A call's files are written by two threads (``put_files``); a failure in either half is
+    raised, and only once the other half has ended (nothing left writing behind the caller)."""
+    import threading
+    import time
+
+    import pasim_graph.store.writes as writes
+
+    real, ended = writes.put_file, []
+
+    def put(path, data):
+        if path.endswith("f4"):  # in the caller's half, while the helper still writes
+            raise OSError(28, "No space left on device")
+        time.sleep(0.05)
+        real(path, data)
+        ended.append((path, threading.current_thread().name))
+
+    monkeypatch.setattr(writes, "put_file", put)
+    files = [(str(tmp_path / f"f{i}"), b"x") for i in range(6)]
+    try:
+        writes.put_files(files)
+    except OSError as exc:
+        assert exc.errno == 28
+    else:
+        raise AssertionError("the failure must be raised")
+    helper = [p for p, t in ended if t.startswith("pasim-writes")]
+    assert helper == [f for f, _ in files[:3]]  # all of the helper's half, before the raise
+    assert [p for p, t in ended if p not in helper] == [files[3][0]]
+    monkeypatch.setattr(writes, "put_file", real)
+    writes.put_files(files)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [f"f{i}" for i in range(6)]
