@@ -90,6 +90,27 @@ def timed(cmd: list[str], env: dict[str, str]) -> dict[str, Any]:
     }
 
 
+def file_cost_ms(folder: str | Path, files: int = 300) -> float:
+    """CPU (user and kernel) in ms to create one 5 KB file in ``folder`` now, written beside
+    and renamed as a chunk file is, in fresh sub-folders, then removed. A run writes a file per
+    array and chunk (the generic radar over 0:360: 1,080): on the 2-core test machine this cost
+    was 0.03 ms in one folder and 0.8 ms in another at the same minute, and changed within
+    minutes (docs/scaling.md), which moves the chunk phase by up to a second."""
+    probe = Path(tempfile.mkdtemp(dir=folder, prefix="file-cost-"))
+    data = b"x" * 5000
+    try:
+        t = os.times()
+        for i in range(files):
+            where = probe / f"v{i % 23}" / "c"
+            where.mkdir(parents=True, exist_ok=True)
+            (where / f"{i}.partial").write_bytes(data)
+            os.replace(where / f"{i}.partial", where / str(i))
+        u = os.times()
+    finally:
+        shutil.rmtree(probe, ignore_errors=True)
+    return round(1000 * ((u.user - t.user) + (u.system - t.system)) / files, 3)
+
+
 def environment(pythonpath: str | None) -> dict[str, str]:
     env = dict(os.environ)
     env.pop("PYTHONPATH", None)
@@ -127,13 +148,15 @@ def foreign_packages(interpreter: str, pythonpath: str) -> str:
 
 
 def graph_run(args: argparse.Namespace, workers: int, build: str, pythonpath: str | None) -> dict:
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory(dir=args.store_dir) as tmp:
         out = Path(tmp) / "run.zarr"
         cmd = [python(args, build), "-m", "pasim_graph", "run", args.graph, "--sector", args.sector]
         cmd += ["--workers", str(workers), "--out", str(out), *args.run_args]
+        file_ms = file_cost_ms(tmp)
         m = timed(cmd, environment(pythonpath))
         phases = PHASES.search(m.pop("stderr"))
         row: dict[str, Any] = {"case": "graph", "build": build, "workers": workers, **m}
+        row["store_dir"], row["file_ms"] = str(Path(tmp).parent), file_ms
         if phases:
             row["setup_s"], row["chunks_s"] = float(phases[1]), float(phases[4])
             row["chunks"] = int(phases[3])
@@ -168,7 +191,7 @@ def digest(store: Path) -> str:
 
 
 def study_run(args: argparse.Namespace, workers: int, build: str, pythonpath: str | None) -> dict:
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory(dir=args.store_dir) as tmp:
         kept = Path(args.keep) / f"{build}_w{workers}" if args.keep else None
         study = Path(tmp) / "study.yaml"
         text = Path(args.study).read_text()
@@ -473,6 +496,11 @@ def main() -> int:
         help="the interpreter of another venv holding the baseline build (an older checkout"
         " whose block modules the installed entry points would not find)",
     )
+    ap.add_argument(
+        "--store-dir",
+        help="where the runs' stores are written (default: the temporary folder); each graph "
+        "run's row records the cost of a file there just before it (file_ms)",
+    )
     ap.add_argument("--keep", help="keep each study's folder under DIR/BUILD_wW (report, scores)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_scaling.jsonl"))
     args = ap.parse_args()
@@ -524,6 +552,7 @@ def main() -> int:
         for w in counts:
             summary[f"graph_{name}_w{w}_chunks_s"] = med("graph", name, w, "chunks_s")
             summary[f"graph_{name}_w{w}_wall_s"] = med("graph", name, w, "wall_s")
+            summary[f"graph_{name}_w{w}_file_ms"] = med("graph", name, w, "file_ms")
             summary[f"study_{name}_w{w}_wall_s"] = med("study", name, w, "wall_s")
             summary[f"study_{name}_w{w}_busy"] = med("study", name, w, "busy")
     ones = [

@@ -234,3 +234,12 @@ def test_a_baseline_checkout_on_the_path_alone_is_refused(bench, tmp_path):
     (checkout / "pasim_blocks").mkdir()
     (checkout / "pasim_blocks" / "__init__.py").write_text("")
     assert bench.foreign_packages(sys.executable, str(checkout)) == ""
+
+
+def test_the_cost_of_a_file_is_measured_where_the_stores_go(bench, tmp_path):
+    """Each graph run's row carries the CPU a small file cost in its store's folder just
+    before it: milliseconds (os.times counts in ticks: 0 for a fast disk and few files), and
+    the probe leaves nothing behind."""
+    cost = bench.file_cost_ms(tmp_path, files=40)
+    assert 0 <= cost < 1000
+    assert list(tmp_path.iterdir()) == []
