@@ -124,11 +124,12 @@ class Damage:
     chunk: tuple[int, ...] | None  # the chunk's grid index; None: the node's metadata
     why: str
     beam_axis: int | None = None  # the array's beam dimension, when it has one
+    key: str | None = None  # the chunk's file under the array ("c.1.0", or "c/1/0" before)
 
     def __str__(self) -> str:
         if self.chunk is None:
             return f"{self.node}/zarr.json ({self.why})"
-        key = "/".join(["c", *map(str, self.chunk)])
+        key = self.key or ".".join(["c", *map(str, self.chunk)])
         return f"{self.node} chunk {key} ({self.why})"
 
 
@@ -170,9 +171,12 @@ def check_chunks(path: str | Path) -> list[Damage]:
         grid = [-(-n // c) for n, c in zip(arr.shape, arr.chunks, strict=True)]
         missing = set()
         for idx in itertools.product(*(range(g) for g in grid)):
-            if not meta_path.parent.joinpath("c", *map(str, idx)).is_file():
+            # The array's own chunk-key encoding: c.1.0 (one folder an array), or c/1/0 in
+            # stores written before 2026-11-29 (a folder a chunk)
+            key = arr.metadata.encode_chunk_key(idx)
+            if not meta_path.parent.joinpath(*key.split("/")).is_file():
                 missing.add(idx)
-                out.append(Damage(node, idx, "missing", beam_axis))
+                out.append(Damage(node, idx, "missing", beam_axis, key))
         out += _unreadable_chunks(arr, node, grid, missing, beam_axis)
     return out
 
@@ -215,7 +219,8 @@ def _unreadable_chunks(
             try:
                 arr.get_block_selection(idx)
             except Exception as exc:
-                out.append(Damage(node, idx, f"unreadable: {_short(exc)}", beam_axis))
+                key = arr.metadata.encode_chunk_key(idx)
+                out.append(Damage(node, idx, f"unreadable: {_short(exc)}", beam_axis, key))
     return out
 
 

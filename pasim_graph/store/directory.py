@@ -201,8 +201,9 @@ def foreign_entries(path: Path) -> list[str]:
             if entry.name == "zarr.json" or (not rel and entry.name in (MARKER, LOCK)):
                 continue
             if is_array:
-                # chunks live under c/ (c itself for a 0-d array)
-                if entry.name != "c" or entry.is_symlink():
+                # chunks are files c.1.0 beside the metadata (c for a 0-d array), or, in
+                # stores written before 2026-11-29, live under the folder c/
+                if entry.is_symlink() or not _chunk_entry(entry):
                     out.append(name)
             elif entry.is_dir() and not entry.is_symlink() and (entry / "zarr.json").exists():
                 out += walk(entry, name + "/")
@@ -214,6 +215,19 @@ def foreign_entries(path: Path) -> list[str]:
         return walk(path, "")
     except OSError as exc:
         raise StoreError(f"cannot read {path}: {exc.strerror or exc}") from None
+
+
+def _chunk_entry(entry: Path) -> bool:
+    """Whether a file or folder beside an array's metadata holds its chunks: the folder c
+    (a folder a chunk) or a file c or c.<index>.<index>... (a file a chunk), or such a file
+    being written (``<key>.<hex>.partial``: a killed run leaves it)."""
+    name = entry.name
+    if name == "c":
+        return True
+    parts = name.split(".")
+    if len(parts) > 3 and parts[-1] == "partial":
+        parts = parts[:-2]
+    return entry.is_file() and parts[0] == "c" and all(p.isdigit() for p in parts[1:])
 
 
 def _entries(path: Path) -> list[str]:

@@ -89,7 +89,11 @@ COMPLETE = "pasim_complete"
 def encoding(dtype: np.dtype) -> dict[str, Any]:
     """How every array of a store is written: its own dtype, NaN where nothing was written
     yet (floats and complex), and each chunk zstd-compressed under a CRC-32C checksum, so a
-    chunk damaged on disk is an error when read, never a wrong value.
+    chunk damaged on disk is an error when read, never a wrong value. Each chunk is a file
+    beside its array's metadata (``c.1.0``: zarr's chunk keys with "." for "/"), not a folder
+    a chunk: a chunk task made 23 folders besides its 24 files, and where creating an entry
+    is dear (a busy disk, a parallel file system's metadata server) the folders cost as much
+    as the files (docs/scaling.md). Stores with a folder a chunk read and resume as before.
 
     The dtype is given explicitly, as a guard: a template built with ``da.zeros(shape, dtype)``
     (dask ignores a positional dtype) was float64 and stored the I/Q cubes without their Q
@@ -97,7 +101,10 @@ def encoding(dtype: np.dtype) -> dict[str, Any]:
     """
     from zarr.codecs import Crc32cCodec, ZstdCodec
 
-    out: dict[str, Any] = {"compressors": [ZstdCodec(level=0), Crc32cCodec()]}
+    out: dict[str, Any] = {
+        "compressors": [ZstdCodec(level=0), Crc32cCodec()],
+        "chunk_key_encoding": {"name": "default", "separator": "."},
+    }
     dtype = np.dtype(dtype)
     if dtype.kind in "fc":
         out["dtype"] = dtype

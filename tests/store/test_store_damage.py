@@ -24,12 +24,9 @@ from ..conftest import pasim
 
 
 def chunk_files(store: Path) -> list[Path]:
-    """Every chunk file of every array in the store."""
-    return sorted(
-        p
-        for p in store.rglob("*")
-        if p.is_file() and "c" in p.relative_to(store).parts and p.name != "zarr.json"
-    )
+    """Every chunk file of every array in the store (c.1.0: a file beside the array's
+    metadata)."""
+    return sorted(p for p in store.rglob("c*") if p.is_file() and p.name.split(".")[0] == "c")
 
 
 def flip(path: Path) -> None:
@@ -77,12 +74,10 @@ def test_any_damaged_chunk_file_is_found(original, tmp_path, fault):
         rel = file.relative_to(original)
         FAULTS[fault](store / rel)
         found = check_chunks(store)
-        parts = rel.parts
-        node = "/".join(parts[: parts.index("c")])
-        key = "/".join(parts[parts.index("c") :])
-        assert [f"{d.node} {'/'.join(['c', *map(str, d.chunk or ())])}" for d in found] == [
-            f"{node} {key}"
-        ], f"{fault} {rel}: {[str(d) for d in found]}"
+        node, key = rel.parent.as_posix(), rel.name
+        assert [f"{d.node} {d.key}" for d in found] == [f"{node} {key}"], (
+            f"{fault} {rel}: {[str(d) for d in found]}"
+        )
         shutil.copy2(file, store / rel)
     assert check_chunks(store) == []
 
@@ -92,10 +87,9 @@ def test_any_damaged_chunk_file_is_found(original, tmp_path, fault):
 def test_score_and_plot_refuse_then_resume_repairs(original, tmp_path, capsys, fault, array):
     store = tmp_path / "run.zarr"
     shutil.copytree(original, store)
-    target = store / array / "c" / "1"
-    target = target if target.is_file() else next(p for p in target.rglob("*") if p.is_file())
+    target = next(p for p in chunk_files(store / array) if p.name.split(".")[1] == "1")
     FAULTS[fault](target)
-    key = target.relative_to(store / array).as_posix()
+    key = target.name
     if array != "pasim_chunk_done":  # a damaged done flag hides no numbers: resume redoes it
         for cmd in (["score", str(store)], ["plot", str(store), "--out", str(tmp_path / "p.png")]):
             code, err = pasim(capsys, *cmd)
@@ -120,3 +114,32 @@ def test_damaged_metadata_is_named_and_not_resumed(original, tmp_path, capsys):
     code, err = pasim(capsys, *RUN, "--out", str(store), "--resume")
     assert code == 2 and "sweep_0/ZDR/zarr.json" in err and "--overwrite" in err, err
     assert "Traceback" not in err
+
+
+def test_a_store_of_a_folder_a_chunk_is_still_checked_and_resumed(tmp_path, capsys, monkeypatch):
+    """Stores written before 2026-11-29 keep each chunk in a folder (c/1/0, zarr's default
+    key encoding); newer ones a file beside the metadata (c.1.0). The older kind is still
+    accepted as this program's, its damage named by its own keys, and --resume repairs it."""
+    import pasim_graph.store.layout as layout
+    from pasim_graph.store.format import encoding
+
+    def nested(dtype):
+        return {**encoding(dtype), "chunk_key_encoding": {"name": "default", "separator": "/"}}
+
+    monkeypatch.setattr(layout, "encoding", nested)
+    reference = tmp_path / "reference.zarr"
+    assert pasim(capsys, *RUN, "--out", str(reference))[0] == 0
+    monkeypatch.undo()
+    chunk = reference / "sweep_0" / "DBZH" / "c" / "1" / "0"
+    assert chunk.is_file() and not list((reference / "sweep_0" / "DBZH").glob("c.*"))
+    assert check_chunks(reference) == []
+    store = tmp_path / "run.zarr"
+    shutil.copytree(reference, store)
+    (store / "sweep_0" / "DBZH" / "c" / "1" / "0").unlink()
+    assert [str(d) for d in check_chunks(store)] == ["sweep_0/DBZH chunk c/1/0 (missing)"]
+    code, err = pasim(capsys, *RUN, "--out", str(store), "--resume")
+    assert code == 0, err
+    assert "rewriting 1 damaged chunk" in err
+    assert (store / "sweep_0" / "DBZH" / "c" / "1" / "0").is_file()
+    assert check_chunks(store) == []
+    same(store, reference)

@@ -144,17 +144,17 @@ def test_a_store_written_before_the_list_is_checked_against_its_consolidated_met
 
 
 def test_resume_refuses_a_link_planted_in_the_store(original, tmp_path, capsys):
-    """A link in place of a chunk folder: --resume would rewrite the damaged chunk through it,
+    """A link in place of a chunk file: --resume would rewrite the damaged chunk through it,
     replacing a file outside the store; it is refused, naming the link, and nothing moves."""
     store = copy_without(original, tmp_path)
     theirs = tmp_path / "theirs"
     theirs.mkdir()
     (theirs / "0").write_text("precious")
-    shutil.rmtree(store / "sweep_0" / "DBZH" / "c" / "1")
-    (store / "sweep_0" / "DBZH" / "c" / "1").symlink_to(theirs, target_is_directory=True)
+    (store / "sweep_0" / "DBZH" / "c.1.0").unlink()
+    (store / "sweep_0" / "DBZH" / "c.1.0").symlink_to(theirs / "0")
     code, err = pasim(capsys, *RUN, "--out", str(store), "--resume")
     assert code == 2, err
-    assert "symbolic link" in err and "sweep_0/DBZH/c/1" in err, err
+    assert "symbolic link" in err and "sweep_0/DBZH/c.1.0" in err, err
     assert "Traceback" not in err and len(err.strip().splitlines()) <= 2, err
     assert (theirs / "0").read_text() == "precious"
     assert sorted(p.name for p in theirs.iterdir()) == ["0"]

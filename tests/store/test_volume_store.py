@@ -168,7 +168,7 @@ def test_chunking_does_not_change_any_sweep(volume, tmp_path, capsys):
 def test_resume_rewrites_a_damaged_chunk_of_a_later_sweep(volume, tmp_path, capsys):
     copy = tmp_path / "store"
     shutil.copytree(volume[0], copy)
-    chunk = copy / "sweep_1" / "DBZH" / "c" / "1" / "0"
+    chunk = copy / "sweep_1" / "DBZH" / "c.1.0"
     assert chunk.is_file()
     chunk.unlink()
     code, _, err = pasim_out(capsys, "score", str(copy))
