@@ -225,7 +225,10 @@ def test_vcp212_over_the_bundled_volume_writes_and_scores_every_cut(tmp_path, ca
     assert done.returncode == 0, done.stderr
     data = json.loads(pasim_result(capsys, "score", str(out), "--json").stdout)
     assert len(data["sweeps"]) == 17
-    assert all(s["scores"]["DBZH"]["count"] > 1000 for s in data["sweeps"].values())
+    # Every cut scored. The highest (19.5 deg) leaves the storm within a few km and scores
+    # 750 gates, as measured when the example landed (docs/scans.md); the lowest 35,298.
+    counts = [s["scores"]["DBZH"]["count"] for s in data["sweeps"].values()]
+    assert min(counts) > 500 and max(counts) > 30_000, counts
 
 
 def test_resume_runs_only_the_chunks_not_flagged_done_in_any_sweep(volume, tmp_path, capsys):
