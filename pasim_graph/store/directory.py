@@ -220,12 +220,14 @@ def foreign_entries(path: Path) -> list[str]:
 def _chunk_entry(entry: Path) -> bool:
     """Whether a file or folder beside an array's metadata holds its chunks: the folder c
     (a folder a chunk) or a file c or c.<index>.<index>... (a file a chunk), or such a file
-    being written (``<key>.<hex>.partial``: a killed run leaves it)."""
+    being written, which a killed run leaves: ``<key>.<hex>.partial`` (ours) or the key's
+    last suffix replaced (zarr's: ``c.1.<hex>.partial`` for c.1.0, ``c.<hex>.partial`` for
+    c.1 and c)."""
     name = entry.name
     if name == "c":
         return True
     parts = name.split(".")
-    if len(parts) > 3 and parts[-1] == "partial":
+    if len(parts) >= 3 and parts[-1] == "partial":
         parts = parts[:-2]
     return entry.is_file() and parts[0] == "c" and all(p.isdigit() for p in parts[1:])
 

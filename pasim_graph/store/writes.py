@@ -182,8 +182,7 @@ def put_files(files: list[tuple[str, Any]]) -> None:
             pool = _HELPERS[os.getpid()] = ThreadPoolExecutor(2, "pasim-writes")
     theirs = pool.submit(_put_all, files[:half])
     try:
-        for file in files[half:]:
-            put_file(*file)
+        _put_all(files[half:])
     except BaseException:
         wait([theirs])  # none left writing behind the caller
         raise

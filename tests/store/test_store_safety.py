@@ -224,6 +224,24 @@ def test_overwrite_refuses_to_delete_what_a_user_put_in_the_store(tmp_path, caps
     assert tree_digest(theirs) == theirs_before
 
 
+def test_partial_chunk_files_a_killed_run_left_are_the_store_s_own(tmp_path, capsys):
+    """A run killed while a chunk file was being written leaves its partial file beside the
+    array's metadata, named by this program (``c.1.0.<hex>.partial``) or by zarr (the key's
+    last suffix replaced: ``c.<hex>.partial`` for a 1-D array's c.0); --overwrite replaces the
+    store, as it would the store without them, where a user's file beside them is refused."""
+    from pasim_graph.store import foreign_entries
+
+    out = tmp_path / "run.zarr"
+    assert pasim(capsys, "run", TINY, "--seed", "1", "--out", str(out))[0] == 0
+    (out / "sweep_0" / "DBZH" / "c.1.0.0123abcd.partial").write_bytes(b"ours")
+    (out / "sweep_0" / "range" / "c.4567cdef.partial").write_bytes(b"zarr's")
+    assert foreign_entries(out) == []
+    (out / "sweep_0" / "range" / "c.notes").write_text("a user's")
+    assert foreign_entries(out) == ["sweep_0/range/c.notes"]
+    (out / "sweep_0" / "range" / "c.notes").unlink()
+    assert pasim(capsys, "run", TINY, "--seed", "2", "--out", str(out), "--overwrite")[0] == 0
+
+
 GENERIC_SMALL = ["run", str(GRAPHS / "generic_radar.yaml"), "--sector", "282:284"]
 GENERIC_SMALL += ["--set", "scan.pulses=8", "--seed", "3"]
 
