@@ -175,16 +175,22 @@ def test_grids_are_shared_by_equal_arrays_only(tmp_path) -> None:
     taken = patterns(boresight, az)
     assert SHARED.hits > hits
     SHARED.clear()
-    own = patterns(CylindricalArray(name="a", calibration="boresight", **common), az)
+    own_block = CylindricalArray(name="a", calibration="boresight", **common)
+    own = patterns(own_block, az)
     np.testing.assert_array_equal(taken["co_polar"].values, own["co_polar"].values)
     np.testing.assert_array_equal(taken["co_polar"].values, a["co_polar"].values)
 
     hits = SHARED.hits
     errors = {"phase_error_deg": 5.0, "amplitude_error_db": 0.5}
     drawn = [CylindricalArray(name="a", **errors, **common) for _ in range(2)]
+    # Each takes its design's broadside figures (its ideal copy's: the array measured just
+    # above, but for the calibration, which changes none of them), and nothing else.
+    assert SHARED.hits == hits + len(drawn)
+    assert all(b.gain_db == own_block.gain_db and b.omega == own_block.omega for b in drawn)
+    hits = SHARED.hits
     for block in drawn:
         patterns(block, az)
-    assert SHARED.hits == hits  # random electronics: nothing kept, nothing taken
+    assert SHARED.hits == hits  # random electronics: no grid kept, none taken
 
     size = 0.0524 * 2.8e9 / C
     el = np.arange(-60.0, 60.001, 1.0)

@@ -10,7 +10,7 @@ import pytest
 from pasim_blocks.study.measuring import Measuring
 from pasim_blocks.study.model import read_study
 from pasim_blocks.study.plan import plan_runs
-from pasim_blocks.study.runner import ensure_patterns
+from pasim_blocks.study.runner import ensure_patterns, measure_ahead
 
 from ..conftest import TINY_STUDY
 
@@ -57,6 +57,33 @@ def test_measured_on_the_cluster_as_in_the_study(tmp_path, client, tiny_study):
     ]
     assert all(line.endswith(" s") for line in lines), lines
     assert len(lines) == 4 and len(saved) == 4
+
+
+def test_measured_ahead_as_each_estimate_starts_as_in_the_study(tmp_path, client, tiny_study):
+    """On a cluster the study measures a first-seed estimate's antenna (and with its
+    system's first estimate the hardware) as the run starts, from the beams its store will
+    hold, before any chunk: the figures the serial study measured from the finished stores,
+    to the last digit (as JSON), each once however many of the system's runs start."""
+    from pasim_graph.dask_executor import DaskExecutor
+    from pasim_graph.executor import RunOptions
+
+    study = read_study(TINY_STUDY)
+    runs, problems = plan_runs(study)
+    assert not problems
+    state: dict = {}
+    lines: list[str] = []
+    measuring = Measuring(state, lambda: None, lines.append)
+    measuring.client = client
+    for run in runs:  # every run, as the study starts them: only the estimates measure
+        executor = DaskExecutor(run.graph(), RunOptions(seed=run.seed))
+        measure_ahead(study, run, runs, executor, measuring)
+    assert not state.get("patterns") and not state.get("hardware")  # sent, not measured here
+    measuring.gather(wait=True)
+    serial = json.loads((tiny_study / "pasim-study.json").read_text())
+    for part in ("patterns", "hardware"):
+        assert json.loads(json.dumps(state[part])) == serial[part], part
+    assert len(lines) == 4, lines
+    assert not list(tmp_path.iterdir())  # nothing written: no store was needed
 
 
 def test_a_failed_measurement_is_raised_where_the_study_waits(client):

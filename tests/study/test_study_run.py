@@ -239,6 +239,47 @@ def test_resume_writes_again_an_array_removed_from_a_run(tmp_path, study):
     np.testing.assert_array_equal(_errors(run, "ZDR")[0], _errors(original, "ZDR")[0])
 
 
+def test_a_run_s_errors_are_read_as_it_finishes_not_by_the_last_scoring(
+    tmp_path, study, monkeypatch
+):
+    """The study reads each computed run's errors when the run is recorded, while the runs
+    in flight compute; the scoring after the last run read them all (the one-seed paper
+    study on two workers: 3.5 s of reading after its last run). Two of the tiny study's
+    runs computed again with --resume: each store read once, before the last scoring, which
+    reads only the runs kept; the scores are the study's."""
+    import shutil
+
+    import pasim_blocks.study.statistics as statistics
+
+    out = tmp_path / "out"
+    shutil.copytree(study, out)
+    redo = sorted((out / "runs").rglob("*-ref.zarr"))[:2]
+    for run in redo:
+        shutil.rmtree(run)
+    events: list[tuple[str, str]] = []
+    read_errors, score_study = statistics.read_errors, statistics.score_study
+
+    def reading(path):
+        events.append(("read", str(Path(path).relative_to(out / "runs"))))
+        return read_errors(path)
+
+    def scoring(*args, **kwargs):
+        events.append(("score", ""))
+        return score_study(*args, **kwargs)
+
+    monkeypatch.setattr(statistics, "read_errors", reading)
+    monkeypatch.setattr(statistics, "score_study", scoring)
+    assert main(["study", str(STUDY), "--out", str(out), "--resume", "--no-report"]) == 0
+    assert scores(out) == scores(study)
+    computed = {str(r.relative_to(out / "runs")) for r in redo}
+    last = max(i for i, e in enumerate(events) if e[0] == "score")
+    before = [key for kind, key in events[:last] if kind == "read"]
+    after = [key for kind, key in events[last:] if kind == "read"]
+    assert sorted(before) == sorted(computed), events
+    assert not computed & set(after), events
+    assert len(after) == len(set(after)), events
+
+
 # SIGTERM in the default suite; SIGINT takes the same path (stop_on_signals) with -m slow.
 @pytest.mark.parametrize(
     "sig", [pytest.param(signal.SIGINT, marks=pytest.mark.slow), signal.SIGTERM], ids=str
