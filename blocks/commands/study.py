@@ -92,9 +92,10 @@ class StudyCommand:
         from ..study.integrity import study_inputs
         from ..study.model import read_study
         from ..study.plan import plan_runs
+        from ..study.reading import StoreReading
         from ..study.runner import StudyError, execute, take_folder, unscored
         from ..study.sizing import MAX_RUNS, MAX_SECONDS, duration, size_study
-        from ..study.statistics import remember_errors, score_study, write_scores
+        from ..study.statistics import score_study, write_scores
 
         study = read_study(args.study)
         problems = list(study.problems)
@@ -153,7 +154,10 @@ class StudyCommand:
         latest: dict = {}
         read: dict = {}  # every store's errors, read once for all the rescores
 
+        reading = StoreReading(read)
+
         def rescore() -> None:
+            reading.collect()
             latest["scores"] = score_study(
                 study, runs, out, state["beamwidths"], state.get("patterns", {}), read
             )
@@ -161,11 +165,10 @@ class StudyCommand:
             latest["at"] = time.monotonic()
 
         def after_run(run: Any) -> None:
-            # Each finished store's errors are read as the run is recorded, while the cluster
-            # computes the runs in flight: the last scoring read every store not read in the
-            # last minute after the last run (the one-seed paper study on two workers: all
-            # 19, 3.5 s of its 4.5 s, the study's last 67 s).
-            remember_errors(out / "runs" / run.key, run.key, read)
+            # Each finished store's errors are read as the run is recorded (on the cluster,
+            # while it computes the runs in flight), not all by the last scoring
+            # (blocks/study/reading.py).
+            reading.add(run.key, out / "runs" / run.key)
             # scores.json follows a long study along, at most once a minute: scoring every
             # finished run again after each one cost a small study more than its runs.
             if time.monotonic() - latest.get("at", started) >= RESCORE_EVERY_S:
@@ -188,10 +191,11 @@ class StudyCommand:
         report: dict | None = None
         try:
             with stop_on_signals():
-                if args.workers and client is None and not args.no_report:
+                if args.workers and client is None:
                     # The study's cluster made here, not by execute, so that it outlives the
-                    # runs: the report's figures are drawn on it.
+                    # runs: the stores are read and the report's figures drawn on it.
                     client, cluster = open_client(args.workers, None)
+                reading.client = client
                 report = execute(
                     study,
                     runs,
@@ -204,6 +208,7 @@ class StudyCommand:
                     client=client,
                 )
         except Stopped as exc:
+            reading.drop()  # the scoring below reads the stores itself
             warn_unscored()
             raise StopMessage(
                 f"stopped by {exc}: finished runs are kept in {out}; complete the study with "

@@ -1,13 +1,13 @@
 """The study's antenna and hardware measurements, beside its runs.
 
 Each system's pattern figures (:mod:`.patterns`) and hardware (:mod:`.hardware`) are measured
-once, when its first estimate has finished: seconds of computing per system (the 10 m CPPAR's
-5 s), done in the calling thread, one after another, while no further run could start there.
-With a cluster they are tasks on it instead, in parallel with each other and with the runs'
-chunks (a task without a priority goes before the chunks: a measurement is on the study's
-critical path, a chunk is one of many); their results are kept in the manifest as they come,
-and every one is in before the study's runs are reported done. Without a cluster they run here
-as before. The functions are pure, seeded by the run: the same figures either way.
+once: seconds of computing per system (the 10 m CPPAR's antenna 3.3 s). Without a cluster they
+are measured in the calling thread once the system's first estimate has finished. With a
+cluster they are tasks on it instead, sent as that estimate starts (``runner.measure_ahead``),
+in parallel with each other and with the runs' chunks (a task without a priority goes before
+the chunks: a measurement is on the study's critical path, a chunk is one of many); their
+results are kept in the manifest as they come, and every one is in before the study's runs
+are reported done. The functions are pure, seeded by the run: the same figures either way.
 """
 
 from __future__ import annotations

@@ -80,13 +80,6 @@ def root_token(path: Path) -> tuple[int, int]:
     return st.st_mtime_ns, st.st_size
 
 
-def remember_errors(path: Path, key: str, read: dict[str, tuple[tuple[int, int], Errors]]) -> None:
-    """Read the errors of the finished store at ``path`` (run ``key``) into ``read``, the
-    cache :func:`score_study` takes: a study reads each store as its run finishes, not all
-    of them when it scores."""
-    read[key] = (root_token(path), read_errors(path))
-
-
 def read_errors(path: str | Path) -> Errors:
     from pasim_graph.store import open_sweep
 

@@ -86,6 +86,33 @@ def test_measured_ahead_as_each_estimate_starts_as_in_the_study(tmp_path, client
     assert not list(tmp_path.iterdir())  # nothing written: no store was needed
 
 
+def test_stores_read_on_the_cluster_are_the_stores_read_here(client, tiny_study):
+    """A study on a cluster reads each finished store's errors as a task: the token and every
+    array are those read in the study's process; a read in flight can be dropped."""
+    import numpy as np
+    from pasim_blocks.study.reading import StoreReading, read_store
+
+    stores = sorted((tiny_study / "runs").rglob("*.zarr"))[:3]
+    read: dict = {}
+    reading = StoreReading(read, client)
+    for path in stores:
+        reading.add(path.name + str(stores.index(path)), path)
+    assert not read  # sent, not read here
+    reading.collect()
+    assert len(read) == len(stores)
+    for i, path in enumerate(stores):
+        token, errors = read[path.name + str(i)]
+        here_token, here = read_store(str(path))
+        assert token == here_token and errors.fields.keys() == here.fields.keys()
+        for name in here.fields:
+            np.testing.assert_array_equal(errors.fields[name], here.fields[name])
+        assert errors.requirements == here.requirements
+    reading.add("again", stores[0])
+    reading.drop()
+    reading.collect()
+    assert "again" not in read
+
+
 def test_a_failed_measurement_is_raised_where_the_study_waits(client):
     state: dict = {}
     measuring = Measuring(state, lambda: None, lambda s: None)

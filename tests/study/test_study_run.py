@@ -249,6 +249,7 @@ def test_a_run_s_errors_are_read_as_it_finishes_not_by_the_last_scoring(
     reads only the runs kept; the scores are the study's."""
     import shutil
 
+    import pasim_blocks.study.reading as reading
     import pasim_blocks.study.statistics as statistics
 
     out = tmp_path / "out"
@@ -259,7 +260,7 @@ def test_a_run_s_errors_are_read_as_it_finishes_not_by_the_last_scoring(
     events: list[tuple[str, str]] = []
     read_errors, score_study = statistics.read_errors, statistics.score_study
 
-    def reading(path):
+    def reading_errors(path):
         events.append(("read", str(Path(path).relative_to(out / "runs"))))
         return read_errors(path)
 
@@ -267,7 +268,8 @@ def test_a_run_s_errors_are_read_as_it_finishes_not_by_the_last_scoring(
         events.append(("score", ""))
         return score_study(*args, **kwargs)
 
-    monkeypatch.setattr(statistics, "read_errors", reading)
+    monkeypatch.setattr(statistics, "read_errors", reading_errors)
+    monkeypatch.setattr(reading, "read_errors", reading_errors)
     monkeypatch.setattr(statistics, "score_study", scoring)
     assert main(["study", str(STUDY), "--out", str(out), "--resume", "--no-report"]) == 0
     assert scores(out) == scores(study)
