@@ -18,9 +18,11 @@ import errno
 import json
 import math
 import signal
+import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import nullcontext
 from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
@@ -102,6 +104,14 @@ class RunReport:
 #: The most beams a chunk is given when the run does not say (``--chunk``): the size whose
 #: memory docs/performance.md measures.
 MOST_BEAMS = 8
+
+#: Held by a run sharing a client with others (a study's runs in flight) while it sets up in
+#: this process (truth, once-per-run blocks, first beam, layout), so that set-ups go one at a
+#: time, each whole: in one interpreter, N set-ups at once share it and all end when the last
+#: does, N times later than the first would have, while the cluster waits for chunks (17 runs
+#: in flight on 16 workers); one at a time, the first run's chunks start after its own
+#: set-up and the others follow.
+SETTING_UP = threading.Lock()
 
 
 def choose_chunk(n_beams: int, slots: int, most: int = MOST_BEAMS, overhead: float = 1.0) -> int:
@@ -356,18 +366,19 @@ class DaskExecutor:
             client = pool.submit(record.timed, "connect", self._connect)
         on_target = 0.0
         try:
-            # The sweeps share their blocks' resources (one dict): read once.
-            record.timed("load", self.local.load)
-            static = record.timed("static", self.local.run_static)
-            for sweep in self.sweeps:
-                sweep.check_steering(static, len(self.sweeps))
-            if state is None:
-                on_target = record.timed(
-                    "layout", self._lay_out, path, lock, static, attrs, len(starts)
-                )
-            elif missing:
-                redo = self._lay_out_again(path, static, attrs, missing)
-                done[[i for i, (k, _) in enumerate(starts) if sweep_group(k) in redo]] = False
+            with SETTING_UP if self._client is not None else nullcontext():
+                # The sweeps share their blocks' resources (one dict): read once.
+                record.timed("load", self.local.load)
+                static = record.timed("static", self.local.run_static)
+                for sweep in self.sweeps:
+                    sweep.check_steering(static, len(self.sweeps))
+                if state is None:
+                    on_target = record.timed(
+                        "layout", self._lay_out, path, lock, static, attrs, len(starts)
+                    )
+                elif missing:
+                    redo = self._lay_out_again(path, static, attrs, missing)
+                    done[[i for i, (k, _) in enumerate(starts) if sweep_group(k) in redo]] = False
             todo = [i for i in range(len(starts)) if not done[i]]
             # Blocks that run once have done their I/O; workers need only per-chunk blocks.
             for sweep in self.sweeps:

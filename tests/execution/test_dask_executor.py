@@ -155,3 +155,53 @@ def test_chunk_keys_name_the_store_as_well_as_the_run():
     assert chunk_key("k", "/a/run.zarr", 3) == chunk_key("k", "/a/run.zarr", 3)
     assert chunk_key("k", "/a/run.zarr", 3) != chunk_key("k", "/b/run.zarr", 3)
     assert chunk_key("k", "/a/run.zarr", 3) != chunk_key("k", "/a/run.zarr", 4)
+
+
+def test_runs_sharing_a_client_set_up_one_at_a_time(tmp_path, monkeypatch):
+    """A study's runs in flight share one client and set up in the `pasim` process, whose one
+    interpreter N set-ups at once would share, all ending when the last does (17 runs in
+    flight on 16 workers): each set-up is whole, one at a time (SETTING_UP). Two runs of the
+    tiny study's graph started together in two threads on one cluster: their set-ups (a
+    truth read made to take 0.3 s) do not overlap, and both runs finish."""
+    import threading
+    import time
+
+    import pytest
+
+    distributed = pytest.importorskip("distributed")
+    from pasim_graph import load
+    from pasim_graph.dask_executor import DaskExecutor
+    from pasim_graph.executor import LocalExecutor, RunOptions
+
+    from ..conftest import FIXTURES
+
+    spans: list[tuple[float, float]] = []
+    load_truth = LocalExecutor.load
+
+    def slow_load(self):
+        t0 = time.monotonic()
+        load_truth(self)
+        time.sleep(0.3)
+        spans.append((t0, time.monotonic()))
+
+    monkeypatch.setattr(LocalExecutor, "load", slow_load)
+    graph = load(FIXTURES / "study" / "small_pencil.yaml")
+    with distributed.Client(
+        processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None
+    ) as client:
+        runs = [
+            DaskExecutor(graph, RunOptions(seed=k, chunk_beams=4), client=client) for k in (0, 1)
+        ]
+        threads = [
+            threading.Thread(target=run.run, args=(tmp_path / f"{k}.zarr", {}))
+            for k, run in enumerate(runs)
+        ]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(120)
+    assert len(spans) == 2
+    (_, first_end), (second_start, _) = sorted(spans)
+    assert first_end <= second_start, spans
+    for k in (0, 1):
+        assert run_state(tmp_path / f"{k}.zarr")[0].get("pasim_complete") == "true"
