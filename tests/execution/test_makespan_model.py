@@ -120,6 +120,17 @@ def test_the_study_s_rest_is_what_no_run_overlaps(bench):
     assert bench.study_model(dated)["rest_s"] == pytest.approx(7.0)
 
 
+def test_a_study_s_figures_on_several_workers_took_their_share_of_its_tail(bench):
+    """The report's figures are drawn on every worker at once: on two, 2 s of drawing (of 4
+    figures) took 1 s of the tail, and the rest after the last chunk is 4 - 1 = 3 s, not
+    4 - 2 (the model predicts the figures spread over the workers the same way)."""
+    runs = [{"started": 1003.0, "stopped": 13.0, "steps": [], "tasks": []}]
+    row = {"records": runs, "wall_s": 20.0, "cpu_s": 30.0, "figures_s": 2.0, "began": 1000.0}
+    assert bench.study_model({**row, "workers": 2, "figures": 4})["rest_s"] == 3.0 + 3.0
+    assert bench.study_model({**row, "workers": 1, "figures": 4})["rest_s"] == 3.0 + 2.0
+    assert bench.study_model({**row, "workers": 8, "figures": 1})["rest_s"] == 3.0 + 2.0
+
+
 def test_a_run_reaching_more_workers_pays_its_first_use_on_each(bench):
     """A run of 90 beams in 9 chunks whose first took 1 s more than the others (its prepared
     inputs): on 4 workers its chunks (as many as the chunking chosen for 4 gives, at least 4)
