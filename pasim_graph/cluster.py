@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -170,11 +171,26 @@ def open_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
 def warm_up_workers(client: Any, classes: list[type[Block]], *, wait: bool = True) -> None:
     """Workers import the block modules (and their numerical libraries) now, while this
     process is still reading the inputs, not when their first chunk arrives. ``wait=False``
-    only sends it (the calling thread goes on reading inputs; a chunk that reaches a worker
-    first pays the imports itself, as without a warm-up)."""
+    only sends it, from a thread of its own (the calling thread goes on reading inputs; a
+    chunk that reaches a worker first pays the imports itself, as without a warm-up)."""
+    if wait:
+        client.run(warm_up_here, classes)
+        return
+    threading.Thread(
+        target=_send_warm_up, args=(client, classes), name="pasim-warm-up", daemon=True
+    ).start()
+
+
+def _send_warm_up(client: Any, classes: list[type[Block]]) -> None:
     # distributed sends without waiting only a coroutine function (it runs it on the
-    # worker's event loop, as it runs a plain one).
-    client.run(_warm_up_async if not wait else warm_up_here, classes, wait=wait)
+    # worker's event loop, as it runs a plain one). The scheduler sends it to every worker
+    # it knows: one just lost (a study's worker killed) it tries to reach for 30 s, then the
+    # call fails. Sent from the calling thread, that stalled a study's next run 30 s and then
+    # ended the study; a warm-up is only ahead of time, and whatever keeps it from a worker
+    # (lost, or the client closed as the study ends) leaves that worker's first chunk to pay
+    # the imports.
+    with contextlib.suppress(Exception):
+        client.run(_warm_up_async, classes, wait=False)
 
 
 async def _warm_up_async(classes: list[type[Block]]) -> None:

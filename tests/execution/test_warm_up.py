@@ -73,3 +73,35 @@ def test_after_the_warm_up_a_first_chunk_imports_nothing(tmp_path, graph):
     )
     assert ran.returncode == 0, ran.stderr[-2000:]
     assert json.loads(ran.stdout.splitlines()[-1]) == []
+
+
+def test_a_warm_up_sent_ahead_never_holds_up_nor_fails_the_caller(monkeypatch):
+    """A study sends each block class's warm-up without waiting. The scheduler sends it to
+    every worker it knows, and one just killed it tried to reach for 30 s, after which the
+    call failed: from the study's main thread, that held up its next run and then ended the
+    study (tests/execution/test_external_scheduler.py, a worker killed mid-study, failed
+    one time in two). Sent from a thread of its own, a call that blocks, then fails, is the
+    caller's concern neither way."""
+    import threading
+
+    from pasim_graph.cluster import warm_up_workers
+
+    release, called, ended = threading.Event(), threading.Event(), threading.Event()
+    raised: list[BaseException] = []
+    monkeypatch.setattr(threading, "excepthook", lambda args: raised.append(args.exc_value))
+
+    class LostWorker:
+        def run(self, function, classes, wait=True):
+            called.set()
+            release.wait(10)
+            ended.set()
+            raise OSError("Timed out trying to connect to tcp://127.0.0.1:1 after 30 s")
+
+    warm_up_workers(LostWorker(), [], wait=False)  # returns while the call is blocked
+    assert called.wait(10) and not ended.is_set()
+    release.set()
+    assert ended.wait(10)
+    for thread in threading.enumerate():
+        if thread.name == "pasim-warm-up":
+            thread.join(10)
+    assert not raised
