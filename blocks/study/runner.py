@@ -22,7 +22,7 @@ import numpy as np
 from pasim_graph.outputs import write_atomic
 
 from .measuring import Measuring
-from .model import Study
+from .model import Case, Study
 from .plan import Run
 
 MANIFEST = "pasim-study.json"
@@ -255,25 +255,17 @@ def ensure_patterns(
     study's order, whichever ends first)."""
     from pasim_graph.store import open_sweep
 
-    from .patterns import point_patterns
-
     cases = {c.name: c for c in study.cases}
     for run in runs:
-        bkey = f"{run.system}/{run.case}/{run.point_name}"
-        if run.kind != "estimate" or run.seed != study.seeds[0]:
+        if not first_seed_estimate(study, run):
             continue
-        if not measuring.wanted("patterns", bkey):
+        if not measuring.wanted("patterns", point_key(run)):
             continue
         path = out / "runs" / run.key
         if run.key in pending or not finished(path):
             continue
         sweep, _ = open_sweep(path)
-        azimuth = sweep["azimuth"].values
-        elevation = cases[run.case].elevation
-        what = f"the antenna of {bkey}"
-        measuring.start(
-            "patterns", bkey, what, point_patterns, run.graph(), azimuth, elevation, run.seed
-        )
+        start_patterns(measuring, run, cases[run.case], sweep["azimuth"].values)
     ensure_hardware(study, runs, out, measuring, pending)
 
 
@@ -287,29 +279,44 @@ def measure_ahead(
     (4 s of the study's tail). The figures are those measured from the finished store
     (:func:`estimate_azimuths` gives its beams' azimuths), of the same run a study one run
     at a time measures them from (:func:`ensure_patterns`, :func:`ensure_hardware`)."""
-    if run.kind != "estimate" or run.seed != study.seeds[0]:
+    if not first_seed_estimate(study, run):
         return
     case = next(c for c in study.cases if c.name == run.case)
-    bkey = f"{run.system}/{run.case}/{run.point_name}"
-    if measuring.wanted("patterns", bkey):
-        from .patterns import point_patterns
-
-        azimuth = estimate_azimuths(executor)
-        what = f"the antenna of {bkey}"
-        measuring.start(
-            "patterns", bkey, what, point_patterns, run.graph(), azimuth, case.elevation, run.seed
-        )
-    first = next(
-        r
-        for r in runs
-        if r.system == run.system and r.kind == "estimate" and r.seed == study.seeds[0]
-    )
+    if measuring.wanted("patterns", point_key(run)):
+        start_patterns(measuring, run, case, estimate_azimuths(executor))
+    first = next(r for r in runs if r.system == run.system and first_seed_estimate(study, r))
     if first is run and measuring.wanted("hardware", run.system):
-        from .hardware import sector_middle
+        start_hardware(measuring, run, case)
 
-        args = (run.case, run.point_name, run.graph(), sector_middle(case.sector), case.elevation)
-        what = f"the hardware of {run.system}"
-        measuring.start("hardware", run.system, what, hardware_record, *args, run.seed)
+
+def first_seed_estimate(study: Study, run: Run) -> bool:
+    """Whether ``run`` is an estimate of the study's first seed: what the antenna and
+    hardware are measured from."""
+    return run.kind == "estimate" and run.seed == study.seeds[0]
+
+
+def point_key(run: Run) -> str:
+    """``SYSTEM/CASE/POINT``: the manifest's key of a run's antenna figures and beamwidth."""
+    return f"{run.system}/{run.case}/{run.point_name}"
+
+
+def start_patterns(measuring: Measuring, run: Run, case: Case, azimuth: np.ndarray) -> None:
+    """Measure the antenna figures of ``run``'s system, case and point at ``azimuth``, the
+    beams of its store."""
+    from .patterns import point_patterns
+
+    key = point_key(run)
+    args = (run.graph(), azimuth, case.elevation, run.seed)
+    measuring.start("patterns", key, f"the antenna of {key}", point_patterns, *args)
+
+
+def start_hardware(measuring: Measuring, run: Run, case: Case) -> None:
+    """Measure ``run``'s system's hardware, steered to the middle of its case's sector."""
+    from .hardware import sector_middle
+
+    args = (run.case, run.point_name, run.graph(), sector_middle(case.sector), case.elevation)
+    what = f"the hardware of {run.system}"
+    measuring.start("hardware", run.system, what, hardware_record, *args, run.seed)
 
 
 def estimate_azimuths(executor: Any) -> np.ndarray:
@@ -332,20 +339,15 @@ def ensure_hardware(
     """Measure each system's pattern, waveform and spectrum (:mod:`.hardware`) once, from its
     first finished estimate (the first case, unswept where it has such a point): kept in the
     manifest under ``hardware``."""
-    from .hardware import sector_middle
-
     cases = {c.name: c for c in study.cases}
     for run in sorted(runs, key=lambda r: r.point_name != "-"):
-        if run.kind != "estimate" or run.seed != study.seeds[0]:
+        if not first_seed_estimate(study, run):
             continue
         if not measuring.wanted("hardware", run.system):
             continue
         if run.key in pending or not finished(out / "runs" / run.key):
             continue
-        case = cases[run.case]
-        args = (run.case, run.point_name, run.graph(), sector_middle(case.sector), case.elevation)
-        what = f"the hardware of {run.system}"
-        measuring.start("hardware", run.system, what, hardware_record, *args, run.seed)
+        start_hardware(measuring, run, cases[run.case])
 
 
 def hardware_record(
@@ -366,7 +368,7 @@ def beamwidth(study: Study, run: Run, runs: list[Run], state: dict[str, Any]) ->
     once per system, case and point, and kept in the manifest."""
     if not run.antennas:
         return None
-    bkey = f"{run.system}/{run.case}/{run.point_name}"
+    bkey = point_key(run)
     bw = state["beamwidths"].get(bkey)
     if bw is None:
         estimate = next(
