@@ -43,6 +43,7 @@ import calendar
 import heapq
 import itertools
 import json
+import math
 import os
 import re
 import resource
@@ -221,6 +222,11 @@ def study_run(args: argparse.Namespace, workers: int, build: str, pythonpath: st
                 int(report[2]),
                 float(report[3]),
             )
+        # The study's measurement tasks (where and when each ran, its CPU).
+        try:
+            measurements = json.loads((out / "pasim-study.json").read_text())["measurements"]
+        except (OSError, ValueError, KeyError):
+            measurements = []
         records = []
         for store in sorted((out / "runs").rglob("*.zarr")):
             try:
@@ -235,6 +241,7 @@ def study_run(args: argparse.Namespace, workers: int, build: str, pythonpath: st
         **m,
         "busy": busy,
         "records": records,
+        "measurements": measurements,
     }
 
 
@@ -352,7 +359,8 @@ def study_model(row: dict) -> dict:
     work = row.get("measure_s", 0.0)
     setups = 0.0
     runs = []
-    started: dict[str, float] = {}
+    started: dict[str, float] = {}  # worker -> its CPU before its first chunk
+    first_chunk: dict[str, float] = {}  # worker -> when its first chunk started (epoch s)
     for r in row["records"]:
         # The set-up steps; not the cluster's connection (shared) nor the chunk phase, whose
         # tasks are counted one by one below.
@@ -366,8 +374,17 @@ def study_model(row: dict) -> dict:
         runs.append((beams, first))
         for t in tasks:
             if "worker_cpu_s" in t:  # records from before it: no start-up term
-                w = t["worker"]
-                started[w] = min(started.get(w, t["worker_cpu_s"]), t["worker_cpu_s"])
+                w = process_of(t["worker"])
+                at = r.get("started", 0.0) + t["start"]
+                if at < first_chunk.get(w, math.inf):
+                    first_chunk[w] = at
+                    started[w] = t["worker_cpu_s"]
+    # A worker's start is its CPU before its first chunk less the measurements it ran first:
+    # those are work, counted above, and sent to one worker each, not paid by every one.
+    for m in row.get("measurements", []):
+        w = process_of(m["worker"])
+        if w in started and m["stop"] <= first_chunk[w]:
+            started[w] -= m["cpu_s"]
     figures_s = row.get("figures_s", 0.0)
     began = study_began(row)
     if began is not None and row["records"]:
@@ -393,6 +410,11 @@ def study_model(row: dict) -> dict:
         "start_cpu_s": statistics.median(started.values()) if started else 0.0,
         "runs": runs,
     }
+
+
+def process_of(worker: str) -> str:
+    """A task's worker process (``host:pid``) without the thread it ran in."""
+    return worker.split("/", 1)[0]
 
 
 def study_began(row: dict) -> float | None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import gc
 import json
 import os
 import sys
@@ -495,6 +496,16 @@ def _join_negative_values(argv: list[str]) -> list[str]:
             continue
         out.append(arg)
     return out
+
+
+def program() -> int:
+    """The ``pasim`` program: :func:`main`, then an exit without the interpreter's last
+    garbage collections (the memory is the operating system's to free): they walk every
+    object the numerical libraries and a run left, 0.37 s measured with a study's imports,
+    0.04 s frozen. Not in :func:`main`, which tests call many times in one process."""
+    code = main()
+    gc.freeze()
+    return code
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -162,10 +162,45 @@ def open_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
             n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
         )
     try:
-        return Client(cluster), cluster
+        client = Client(cluster)
+        from .worker_exit import FreezeAtClose
+
+        client.register_plugin(FreezeAtClose())
+        return client, cluster
     except BaseException:
         cluster.close()
         raise
+
+
+class StartingCluster:
+    """A LocalCluster of ``workers`` started in a thread of its own (:func:`open_client`)
+    while the caller goes on (a study sizes and plans its runs: its workers start, import
+    and register meanwhile). :meth:`take` waits for it and hands it over; :meth:`drop` closes
+    one never taken (the study refused, stopped or broken first)."""
+
+    def __init__(self, workers: int):
+        from concurrent.futures import ThreadPoolExecutor
+
+        self._pool = ThreadPoolExecutor(1, thread_name_prefix="pasim-cluster-start")
+        self._started = self._pool.submit(open_client, workers, None)
+        self._pool.shutdown(wait=False)
+        self._taken = False
+
+    def take(self) -> tuple[Any, Any]:
+        """The client and its cluster (the caller closes both); a failed start raises here."""
+        self._taken = True
+        return self._started.result()
+
+    def drop(self) -> None:
+        if self._taken:
+            return
+        self._taken = True
+        try:
+            client, cluster = self._started.result()
+        except Exception:  # a start that failed has nothing to close
+            return
+        client.close()
+        cluster.close()
 
 
 def warm_up_workers(client: Any, classes: list[type[Block]], *, wait: bool = True) -> None:

@@ -33,6 +33,20 @@ def sweep_overrides(graph: Graph) -> list[dict[str, Any]]:
     return overrides or [{}]
 
 
+def sweep_beam_counts(graph: Graph) -> list[int]:
+    """Each sweep's number of beams, from the beam source alone: no other block is built
+    (an antenna's set-up can take a second; a study counts its runs' beams before any)."""
+    name = beam_source(graph)
+    cls = graph.classes[name]
+    counts = []
+    for overrides in sweep_overrides(graph):
+        try:
+            counts.append(cls(name=name, **{**graph.params[name], **overrides}).beam_count())
+        except Exception as exc:
+            raise BlockError(name, cls.type_name, None, exc) from exc
+    return counts
+
+
 def for_sweep(base: LocalExecutor, overrides: dict[str, Any], index: int = 0) -> LocalExecutor:
     """``base`` with its beam source rebuilt from ``overrides`` for the sweep at ``index``
     (which keys its random streams): the other blocks, the loaded resources (one dict,

@@ -19,6 +19,10 @@ from typing import Any, TypeVar
 
 T = TypeVar("T")
 
+#: The manifest's list of the measurement tasks' records (:func:`recorded`), in the order
+#: they were kept.
+MEASUREMENTS = "measurements"
+
 
 class Measuring:
     """Measurements started here or on ``client``'s cluster, kept in ``state[part][key]``."""
@@ -39,12 +43,12 @@ class Measuring:
         """Measure ``measure(*args)`` into ``state[part][key]``: now, or as a cluster task
         (``what`` names it in the log line)."""
         if self.client is None:
-            self._done(part, key, what, *timed(measure, *args))
+            self._done(part, key, what, *recorded(measure, *args))
             return
         # A key of this study's own (another study on the cluster may measure the same names).
         token = os.urandom(6).hex()
         future = self.client.submit(
-            timed, measure, *args, key=f"pasim-measure-{part}-{key}-{token}"
+            recorded, measure, *args, key=f"pasim-measure-{part}-{key}-{token}"
         )
         self._flight[(part, key)] = (future, what)
 
@@ -53,9 +57,9 @@ class Measuring:
         raised here, as it would have been in the calling thread)."""
         for (part, key), (future, what) in list(self._flight.items()):
             if wait or future.done():
-                value, seconds = future.result()
+                value, record = future.result()
                 del self._flight[(part, key)]
-                self._done(part, key, what, value, seconds)
+                self._done(part, key, what, value, record)
 
     def drop(self) -> None:
         """Forget the measurements in flight (the study stops: a resume measures them)."""
@@ -63,10 +67,30 @@ class Measuring:
             future.release()
         self._flight.clear()
 
-    def _done(self, part: str, key: str, what: str, value: dict, seconds: float) -> None:
+    def _done(self, part: str, key: str, what: str, value: dict, record: dict) -> None:
         self.state.setdefault(part, {})[key] = value
+        # The study's record of its measurement tasks, beside its runs' (each store's
+        # ``pasim_tasks``): where and when each ran, its CPU (docs/scaling.md).
+        self.state.setdefault(MEASUREMENTS, []).append({"kind": part, "key": key, **record})
         self.keep()
-        self.log(f"measured {what}: {seconds:.1f} s")
+        self.log(f"measured {what}: {record['stop'] - record['start']:.1f} s")
+
+
+def recorded(work: Callable[..., T], *args: Any) -> tuple[T, dict[str, Any]]:
+    """``work(*args)`` and its record where it ran: its start and stop (epoch seconds), its
+    thread's CPU seconds, its process's CPU seconds before it (a worker's start-up and what
+    it ran before) and the worker (:func:`pasim_graph.cluster.worker_name`)."""
+    from pasim_graph.cluster import worker_name
+
+    start, cpu, process_cpu = time.time(), time.thread_time(), time.process_time()
+    value = work(*args)
+    return value, {
+        "start": round(start, 4),
+        "stop": round(time.time(), 4),
+        "cpu_s": round(time.thread_time() - cpu, 4),
+        "worker_cpu_s": round(process_cpu, 4),
+        "worker": worker_name(),
+    }
 
 
 def timed(work: Callable[..., T], *args: Any) -> tuple[T, float]:

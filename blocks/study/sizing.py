@@ -110,10 +110,9 @@ def size_study(study: Study) -> Size:
 
 def _cost_of(graph: Any) -> tuple[int, str, int]:
     """The beams of a graph's scan (every sweep), its weather method and pulses per dwell."""
-    from pasim_graph.executor import RunOptions
-    from pasim_graph.sweeps import sweep_executors
+    from pasim_graph.sweeps import sweep_beam_counts
 
-    beams = sum(s.plan.beam_count for s in sweep_executors(graph, RunOptions()))
+    beams = sum(sweep_beam_counts(graph))
     method, pulses = "covariance", REFERENCE_PULSES
     for name, cls in graph.classes.items():
         if cls.fidelity_param and cls.expected_level:

@@ -218,6 +218,41 @@ def test_every_further_worker_pays_a_worker_s_start_again(bench):
     assert bench.study_busy(model, 2) == pytest.approx((2.0 + 12.0 + 3.0) / (2 * (2.0 + 15.0 / 2)))
 
 
+def test_a_worker_s_start_leaves_out_the_measurements_it_ran_first(bench):
+    """The study's antenna and hardware measurements are tasks sent to one worker each: the
+    one a worker ran before its first chunk is work (counted once), not part of starting it.
+    Made up: worker h:1 had 3 s of CPU at its first chunk (epoch 104 s), 1.2 s of it a
+    measurement that ended at 102 s; its measurement ending at 110 s came later. Worker h:2
+    ran none: 1.5 s. The start is their median, (1.8 + 1.5) / 2."""
+    run = {
+        "started": 100.0,
+        "steps": [],
+        "tasks": [
+            {
+                "start": 4.0,
+                "stop": 8.0,
+                "worker": "h:1/Dask-Default-Threads-1-0",
+                "worker_cpu_s": 3.0,
+            },
+            {
+                "start": 5.0,
+                "stop": 9.0,
+                "worker": "h:2/Dask-Default-Threads-2-0",
+                "worker_cpu_s": 1.5,
+            },
+        ],
+    }
+    measured = [
+        {"kind": "patterns", "start": 100.8, "stop": 102.0, "cpu_s": 1.2, "worker": "h:1"},
+        {"kind": "hardware", "start": 109.0, "stop": 110.0, "cpu_s": 1.0, "worker": "h:1"},
+    ]
+    row = {"records": [run], "wall_s": 14.0, "cpu_s": 14.0, "measurements": measured}
+    assert bench.study_model(row)["start_cpu_s"] == pytest.approx((1.8 + 1.5) / 2)
+    # Without the study's record of its measurements, the worker's CPU as it was.
+    row["measurements"] = []
+    assert bench.study_model(row)["start_cpu_s"] == pytest.approx((3.0 + 1.5) / 2)
+
+
 def test_a_run_s_first_use_is_what_its_leading_chunks_took_beyond_a_typical_one(bench):
     # Memos filled over the first three chunks (1.5, 1.0, 0.6 against a typical 0.2), then a
     # chunk of more weather later (0.9): the first use is 1.3 + 0.8 + 0.4, not the later one.

@@ -57,6 +57,15 @@ def test_measured_on_the_cluster_as_in_the_study(tmp_path, client, tiny_study):
     ]
     assert all(line.endswith(" s") for line in lines), lines
     assert len(lines) == 4 and len(saved) == 4
+    # Each task's record kept with them (the serial study's too): what, where, when, its CPU.
+    for kept in (state, serial):
+        records = kept["measurements"]
+        assert sorted((m["kind"], m["key"]) for m in records) == sorted(
+            (part, key) for part in ("patterns", "hardware") for key in kept[part]
+        )
+        for m in records:
+            assert m["start"] <= m["stop"] and m["cpu_s"] >= 0 and m["worker_cpu_s"] > 0
+            assert m["worker"].split(":")[0]  # host:pid[/thread]
 
 
 def test_measured_ahead_as_each_estimate_starts_as_in_the_study(tmp_path, client, tiny_study):

@@ -12,7 +12,7 @@ import pytest
 from pasim_blocks.study import plan, sizing
 from pasim_blocks.study.model import read_study
 
-from ..conftest import pasim, pasim_out
+from ..conftest import GRAPHS, pasim, pasim_out
 
 FIX = Path(__file__).parents[1] / "fixtures" / "study"
 
@@ -125,3 +125,20 @@ def test_planning_resolves_one_graph_per_sweep_point(tmp_path, monkeypatch):
     points = 4 * 4
     assert len(runs) == points * 4
     assert len(calls) <= points + 8, f"{len(calls)} graphs resolved for {points} points"
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["generic_radar", "generic_vcp212", "atd_schedule", "generic_split_cut", "generic_rhi"],
+)
+def test_beams_are_counted_from_the_beam_source_alone(name):
+    """The sizing counts each sweep's beams without building the graph's other blocks (an
+    antenna's set-up took 1.5 s of the paper study's start): the same counts as the
+    executors that run the graph (one or several sweeps, a schedule, an RHI)."""
+    from pasim_graph import load
+    from pasim_graph.executor import RunOptions
+    from pasim_graph.sweeps import sweep_beam_counts, sweep_executors
+
+    graph = load(GRAPHS / f"{name}.yaml")
+    want = [s.plan.beam_count for s in sweep_executors(graph, RunOptions())]
+    assert sweep_beam_counts(graph) == want
