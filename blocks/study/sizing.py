@@ -3,8 +3,9 @@
 Counted by arithmetic from the study file (systems x cases x sweep points x runs per point),
 never by building the runs: :func:`.plan.plan_runs` resolves a graph per point, which a
 300 x 300 sweep cannot afford before saying how big it is. One graph per system and case
-(its first point) gives the beams, the pulses (a swept pulse count at its mean), the
-fidelity level and the calibration choices.
+(its first point) gives the beams (from its beam source alone, no other block built: an
+array antenna's set-up takes up to a second), the pulses (a swept pulse count at its mean),
+the fidelity level and the calibration choices.
 
 The time: each run costs :data:`PER_RUN_S` plus its beams x :data:`PER_BEAM_S` of its
 fidelity level (the weather channel's ``method``: the estimate runs at the graph's, the
