@@ -13,6 +13,7 @@ import copy
 from dataclasses import replace
 from typing import Any
 
+from .block import Block
 from .executor import BlockError, LocalExecutor, RunOptions
 from .graph import Graph
 
@@ -33,18 +34,22 @@ def sweep_overrides(graph: Graph) -> list[dict[str, Any]]:
     return overrides or [{}]
 
 
+def sweep_source(graph: Graph, overrides: dict[str, Any]) -> tuple[Block, int]:
+    """The graph's beam source built with one sweep's ``overrides``, and its beams
+    (:class:`BlockError` naming it when it cannot be built)."""
+    name = beam_source(graph)
+    cls = graph.classes[name]
+    try:
+        block = cls(name=name, **{**graph.params[name], **overrides})
+        return block, block.beam_count()
+    except Exception as exc:
+        raise BlockError(name, cls.type_name, None, exc) from exc
+
+
 def sweep_beam_counts(graph: Graph) -> list[int]:
     """Each sweep's number of beams, from the beam source alone: no other block is built
     (an antenna's set-up can take a second; a study counts its runs' beams before any)."""
-    name = beam_source(graph)
-    cls = graph.classes[name]
-    counts = []
-    for overrides in sweep_overrides(graph):
-        try:
-            counts.append(cls(name=name, **{**graph.params[name], **overrides}).beam_count())
-        except Exception as exc:
-            raise BlockError(name, cls.type_name, None, exc) from exc
-    return counts
+    return [sweep_source(graph, overrides)[1] for overrides in sweep_overrides(graph)]
 
 
 def for_sweep(base: LocalExecutor, overrides: dict[str, Any], index: int = 0) -> LocalExecutor:
@@ -53,16 +58,11 @@ def for_sweep(base: LocalExecutor, overrides: dict[str, Any], index: int = 0) ->
     shared) and the timings are the same objects."""
     if not overrides and index == base.sweep:
         return base
-    graph = base.plan.graph
-    name = beam_source(graph)
-    cls = graph.classes[name]
-    try:
-        block = cls(name=name, **{**graph.params[name], **overrides})
-        n_beams = block.beam_count()
-    except Exception as exc:
-        raise BlockError(name, cls.type_name, None, exc) from exc
+    block, n_beams = sweep_source(base.plan.graph, overrides)
     out = copy.copy(base)
-    out.plan = replace(base.plan, blocks={**base.plan.blocks, name: block}, beam_count=n_beams)
+    out.plan = replace(
+        base.plan, blocks={**base.plan.blocks, block.name: block}, beam_count=n_beams
+    )
     out.sweep = index
     return out
 
