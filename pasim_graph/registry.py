@@ -50,6 +50,20 @@ _loaded: dict[str, type[Block] | None] = {}
 _errors: dict[str, str] = {}
 
 
+def interrupted(exc: BaseException) -> None:
+    """Raise KeyboardInterrupt when ``exc`` came of one: Ctrl-C while a compiled module
+    initialises reaches here as that module's ImportError (pybind11's "initialization
+    failed", raised from the interrupt), and was reported as a broken block type (with every
+    graph problem that followed) instead of the interrupt it is."""
+    seen: set[int] = set()
+    cause: BaseException | None = exc
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, KeyboardInterrupt):
+            raise KeyboardInterrupt from exc
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+
+
 def refresh() -> None:
     """Forget what was discovered, e.g. after installing a plugin package."""
     _entry_points.cache_clear()
@@ -90,6 +104,7 @@ def get(name: str) -> type[Block] | None:
             # a library class under a second name does not rename the library's class.
             TYPE_NAMES.setdefault(cls, name)
         except Exception as exc:  # a broken plugin must not break everyone else
+            interrupted(exc)
             _errors[name] = f"{type(exc).__name__}: {exc}"
             warnings.warn(
                 f"block plugin {name!r} ({ep.value}) failed to load: {_errors[name]}",
@@ -129,6 +144,7 @@ def commands() -> dict[str, Command]:
             if problems:
                 raise TypeError(f"{ep.value} is not a pasim command: {'; '.join(problems)}")
         except Exception as exc:  # a broken plugin must not break the command line
+            interrupted(exc)
             warnings.warn(
                 f"command plugin {ep.name!r} ({ep.value}) failed to load: "
                 f"{type(exc).__name__}: {exc}",
@@ -155,6 +171,7 @@ def figure_makers() -> dict[str, Any]:
             if not callable(make):
                 raise TypeError(f"{ep.value} is not callable")
         except Exception as exc:  # a broken plugin must not break the studio
+            interrupted(exc)
             warnings.warn(
                 f"figure plugin {ep.name!r} ({ep.value}) failed to load: "
                 f"{type(exc).__name__}: {exc}",
