@@ -111,9 +111,12 @@ def traced(fn: Callable[[], Any]) -> tuple[Any, tuple[int, int]]:
 
 
 #: Address space a chunk's thread maps besides the memory it uses: glibc gives each thread
-#: its own malloc arena (reserved in 64 MiB heaps on 64-bit Linux) and an 8 MiB stack. It
+#: its own malloc arena (reserved in 64 MiB heaps on 64-bit Linux) and an 8 MiB stack, and
+#: OpenBLAS a 32 MiB buffer to each thread that calls it at once (measured: a process's
+#: address space grows by 32 MiB at its first matrix product, numpy 2.4's OpenBLAS; without
+#: it a run allowed narrowly ended in "OpenBLAS error: Memory allocation still failed"). It
 #: counts only against an address-space limit (``ulimit -v``), which counts what is mapped.
-THREAD_ADDRESS_SPACE = (64 + 8) * 2**20
+THREAD_ADDRESS_SPACE = (64 + 8 + 32) * 2**20
 
 
 def address_space_limited() -> bool:
