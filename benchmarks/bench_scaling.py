@@ -222,11 +222,14 @@ def study_run(args: argparse.Namespace, workers: int, build: str, pythonpath: st
                 int(report[2]),
                 float(report[3]),
             )
-        # The study's measurement tasks (where and when each ran, its CPU).
+        # The study's measurement tasks (where and when each ran, its CPU), and the `pasim`
+        # process's CPU while the runs ran.
         try:
-            measurements = json.loads((out / "pasim-study.json").read_text())["measurements"]
-        except (OSError, ValueError, KeyError):
-            measurements = []
+            manifest = json.loads((out / "pasim-study.json").read_text())
+        except (OSError, ValueError):
+            manifest = {}
+        measurements = manifest.get("measurements", [])
+        process = manifest.get("process", [])
         records = []
         for store in sorted((out / "runs").rglob("*.zarr")):
             try:
@@ -242,6 +245,7 @@ def study_run(args: argparse.Namespace, workers: int, build: str, pythonpath: st
         "busy": busy,
         "records": records,
         "measurements": measurements,
+        "process": process,
     }
 
 
@@ -403,6 +407,9 @@ def study_model(row: dict) -> dict:
     return {
         "work_s": work,
         "setup_s": setups,
+        # The `pasim` process's CPU while the runs ran (set-ups, start-ups of runs, the
+        # scheduler and client of a local cluster): one interpreter, a lane of its own.
+        "process_s": sum(p["cpu_s"] for p in row.get("process", [])),
         "figures_s": figures_s,
         "figures": row.get("figures", 0),
         "rest_s": rest,
@@ -465,15 +472,18 @@ def paid_again(model: dict, workers: int) -> float:
 def predict_study(model: dict, workers: int, cores: int | None = None) -> float:
     """Runs overlapped: the rest one after another, the work spread over the workers with the
     first uses they pay again and each further worker's start-up (but never faster than the
-    runs' set-ups in the `pasim` process, nor than the cores can give the CPU that runs beside
-    it; ``cores``: the machine's, one a worker when not given), then the report's figures
-    spread over them."""
+    runs' set-ups in the `pasim` process, nor than that process's CPU while the runs ran,
+    all of it taken as one lane (its threads share one interpreter; as measured on the row's
+    workers: unknown how it grows with more), nor than the cores can give the CPU that runs
+    beside it; ``cores``: the machine's, one a worker when not given), then the report's
+    figures spread over them."""
     cores = cores or workers
     again = paid_again(model, workers)
     figures = model.get("figures_s", 0.0) / max(1, min(workers, model.get("figures", 1) or 1))
     work = max(
         (model["work_s"] + again) / workers,
         model.get("setup_s", 0.0),
+        model.get("process_s", 0.0),
         (model["beside_cpu_s"] + again) / cores,
     )
     return model["rest_s"] + work + figures

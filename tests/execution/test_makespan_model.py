@@ -90,6 +90,7 @@ def test_the_study_model_counts_set_up_steps_and_tasks_once(bench):
     assert model == {
         "work_s": 12.0,
         "setup_s": 4.0,
+        "process_s": 0.0,  # a row from before the study recorded its process
         "figures_s": 0.0,
         "figures": 0,
         "rest_s": 8.0,
@@ -216,6 +217,22 @@ def test_every_further_worker_pays_a_worker_s_start_again(bench):
     assert bench.predict_study(model, 1, 1) == pytest.approx(14.0)
     assert bench.predict_study(model, 2, 2) == pytest.approx(2.0 + 15.0 / 2)
     assert bench.study_busy(model, 2) == pytest.approx((2.0 + 12.0 + 3.0) / (2 * (2.0 + 15.0 / 2)))
+
+
+def test_the_pasim_process_s_cpu_while_the_runs_ran_is_a_lane_of_its_own(bench):
+    """The `pasim` process set the runs up and served the cluster with 9 s of CPU while they
+    ran (made up: the study's record, two invocations, 6 + 3 s): however many workers share
+    the 12 s of work, the runs take at least those 9 s."""
+    run = {
+        "steps": [],
+        "tasks": [{"start": 4.0 * i, "stop": 4.0 * i + 4.0} for i in range(3)],
+    }
+    process = [{"cpu_s": 6.0, "workers": 1}, {"cpu_s": 3.0, "workers": 1}]
+    row = {"records": [run], "wall_s": 14.0, "cpu_s": 14.0, "process": process}
+    model = bench.study_model(row)
+    assert model["process_s"] == 9.0
+    assert bench.predict_study(model, 1, 1) == pytest.approx(2.0 + 12.0)
+    assert bench.predict_study(model, 4, 4) == pytest.approx(2.0 + 9.0)  # not 2 + 12 / 4
 
 
 def test_a_worker_s_start_leaves_out_the_measurements_it_ran_first(bench):

@@ -66,6 +66,10 @@ def test_measured_on_the_cluster_as_in_the_study(tmp_path, client, tiny_study):
         for m in records:
             assert m["start"] <= m["stop"] and m["cpu_s"] >= 0 and m["worker_cpu_s"] > 0
             assert m["worker"].split(":")[0]  # host:pid[/thread]
+    # And the study's process while its runs ran (this one serial: no workers).
+    ((process,),) = [serial["process"]]
+    assert process["start"] < process["stop"] and process["cpu_s"] > 0
+    assert process["workers"] is None
 
 
 def test_measured_ahead_as_each_estimate_starts_as_in_the_study(tmp_path, client, tiny_study):
