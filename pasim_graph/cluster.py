@@ -172,6 +172,20 @@ def open_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
         raise
 
 
+def close(client: Any, cluster: Any = None) -> None:
+    """Close ``client`` and then the LocalCluster it runs on (either may be None)."""
+    if client is not None:
+        client.close()
+    if cluster is not None:
+        cluster.close()
+
+
+def workers_in_range(workers: int, cores: int | None) -> bool:
+    """Whether ``--workers`` asks for 1 to ``cores`` local workers (any number when the
+    cores are not known)."""
+    return workers >= 1 and (not cores or workers <= cores)
+
+
 class StartingCluster:
     """A LocalCluster of ``workers`` started in a thread of its own (:func:`open_client`)
     while the caller goes on (a study sizes and plans its runs: its workers start, import
@@ -205,8 +219,7 @@ class StartingCluster:
             client, cluster = self._started.result()
         except Exception:  # a start that failed has nothing to close
             return
-        client.close()
-        cluster.close()
+        close(client, cluster)
 
 
 def warm_up_workers(client: Any, classes: list[type[Block]], *, wait: bool = True) -> None:

@@ -73,16 +73,16 @@ class StudyCommand:
     def run(self, args: argparse.Namespace) -> int:
         if args.report_only:
             return self.report_only(args)
-        from pasim_graph.cluster import StartingCluster
+        from pasim_graph.cluster import StartingCluster, workers_in_range
 
         # The study's local cluster starts now, while the study is read, sized and planned
         # (0.3-0.5 s of its start and its workers' imports on the way, not before the first
         # run), when the command can run at all; a study refused after all closes it.
         cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None
-        can_run = args.out and not args.check and not args.scheduler
         early = None
-        if can_run and args.workers is not None and 1 <= args.workers <= (cores or args.workers):
-            early = StartingCluster(args.workers)
+        if args.out and not args.check and args.workers is not None:
+            if workers_in_range(args.workers, cores):
+                early = StartingCluster(args.workers)
         try:
             return self._run(args, cores, early)
         finally:
@@ -95,7 +95,9 @@ class StudyCommand:
             SchedulerError,
             check_scheduler,
             check_storage,
+            close,
             open_client,
+            workers_in_range,
         )
         from pasim_graph.command_api import UserError
         from pasim_graph.dask_executor import ResourceError, ResumeError
@@ -141,7 +143,7 @@ class StudyCommand:
             return 0
         if not args.out:
             raise UserError("--out DIR is needed to run the study (or --check to validate it)")
-        if args.workers is not None and (args.workers < 1 or (cores and args.workers > cores)):
+        if args.workers is not None and not workers_in_range(args.workers, cores):
             raise UserError(f"--workers {args.workers}: give 1 to {cores or 'the cores'}")
         out = Path(args.out)
         client = None  # the study's one client to an external scheduler: closed here
@@ -159,12 +161,12 @@ class StudyCommand:
                     # study then runs on the same client.
                     check_storage(args.scheduler, out, client)
             except SchedulerError as exc:
-                _close(client)
+                close(client)
                 raise UserError(str(exc)) from None
         try:
             state = take_folder(out, study, args.resume, study_inputs(study, runs))
         except StudyError as exc:
-            _close(client)
+            close(client)
             raise UserError(str(exc)) from None
 
         latest: dict = {}
@@ -249,11 +251,11 @@ class StudyCommand:
             raise UserError(str(exc)) from None
         finally:
             if report is None:
-                _close(client, cluster)
+                close(client, cluster)
         try:
             self._finish(args, out, report, rescore, warn_unscored, client)
         finally:
-            _close(client, cluster)
+            close(client, cluster)
         return 0
 
     def _finish(
@@ -331,13 +333,6 @@ class StudyCommand:
             raise UserError(str(exc)) from None
         print(f"wrote {path}", file=sys.stderr)
         return 0
-
-
-def _close(client: Any, cluster: Any = None) -> None:
-    if client is not None:
-        client.close()
-    if cluster is not None:
-        cluster.close()
 
 
 COMMAND = StudyCommand()

@@ -447,7 +447,7 @@ def execute(
     instead and left open. With a cluster, the antenna and hardware measurements are tasks on
     it too (:mod:`.measuring`).
     """
-    from pasim_graph.cluster import LOCAL_SCHEDULERS, open_client, warm_up_workers
+    from pasim_graph.cluster import LOCAL_SCHEDULERS, close, open_client, warm_up_workers
     from pasim_graph.dask_executor import DaskExecutor
     from pasim_graph.executor import RunOptions
     from pasim_graph.provenance import run_attrs
@@ -526,7 +526,11 @@ def execute(
     # two workers, on the cores the workers compute on). The set-ups' outputs and the
     # blocks they build are the same with one thread (the four paper systems' first chunk
     # to the bit, 2026-11-29); chunks always run with one (workers get it from their nanny).
-    blas = _one_blas_thread() if client is not None else contextlib.nullcontext()
+    blas: Any = contextlib.nullcontext()
+    if client is not None:
+        from threadpoolctl import threadpool_limits
+
+        blas = threadpool_limits(limits=1, user_api="blas")
     began, cpu = time.time(), time.process_time()
     try:
         with blas:
@@ -548,14 +552,5 @@ def execute(
             save(out, state)
     finally:
         measuring.drop()
-        if client is not None and not given:
-            client.close()
-        if cluster is not None:
-            cluster.close()
+        close(client if not given else None, cluster)
     return {"computed": computed, "kept": kept, "seconds": time.perf_counter() - t_start}
-
-
-def _one_blas_thread() -> Any:
-    from threadpoolctl import threadpool_limits
-
-    return threadpool_limits(limits=1, user_api="blas")
